@@ -1,0 +1,3 @@
+from semexp_bt.cli import main
+
+raise SystemExit(main())
