@@ -38,6 +38,14 @@ class Robot(abc.ABC):
     def observe(self) -> Observation:
         """The latest RGB-D frame with its camera pose, base pose and stamp (rendered on demand in sim)."""
 
+    def observe_depth(self) -> Observation:
+        """The latest frame for the local planner, which needs depth only (12 Hz).
+
+        Backends that can render depth alone override this to skip colour and segmentation; the
+        returned Observation may then carry an empty ``rgb``. The default returns :meth:`observe`.
+        """
+        return self.observe()
+
     @abc.abstractmethod
     def base_pose(self) -> Pose2D:
         """The base pose in ``map`` from odometry (cheap: no rendering)."""

@@ -15,6 +15,7 @@ from collections.abc import Sequence
 #: subcommand -> (module, one-line help). Modules are listed once, here.
 COMMANDS: dict[str, tuple[str, str]] = {
     "run": ("semexp_bt.run_cli", "run one mission tree on a robot backend"),
+    "replay": ("semexp_bt.replay_cli", "print a per-tick record back"),
     "tree": ("trees.cli", "validate (check) or print (show) a mission tree"),
     "scene": ("sims.cli", "list scenes or render one"),
     "bench": ("semexp_bt.bench_cli", "benchmarks: core, ..."),

@@ -45,6 +45,12 @@ class ArbitrationConfig:
     """Numerical-stability constant of Eq. 2."""
     scene_region_half_size_px: float = field(default=40.0, metadata=_range(1.0, 1000.0))
     """Half side of the square scene region built around a VLM point that comes without a box."""
+    cross_source_consistency: bool = True
+    """When both sources answered for a view, an object candidate one of them did not corroborate is
+    scored as spatially inconsistent (IoU = unsupported_iou) instead of dropping the term; see
+    docs/arbitration.md. False gives the literal per-candidate omission."""
+    unsupported_iou: float = field(default=0.05, metadata=_range(0.0, 1.0))
+    """The IoU an uncorroborated object candidate gets in the consistency term."""
     depth_min_m: float = field(default=0.3, metadata=_range(0.0, 100.0))
     """Nearest valid depth for kappa (D435i minimum range)."""
     depth_max_m: float = field(default=10.0, metadata=_range(0.1, 100.0))
@@ -102,6 +108,9 @@ class DecisionConfig:
     """Travel-cost rate (1/m) in Eq. 9."""
     travel_cost: Literal["graph", "euclidean"] = "graph"
     """Travel cost d(P_robot, P_v): shortest path on the memory graph or straight-line distance."""
+    relevance_floor: float = field(default=0.1, metadata=_range(0.0, 1.0))
+    """S is floored at this value in Eq. 9, so nodes whose label is unrelated to the instruction (an
+    unexplored direction) keep exploration value; 0 gives the paper's literal product."""
     tie_tolerance: float = field(default=1e-9, metadata=_range(0.0, 1.0))
     """Utilities within this relative tolerance are a tie, broken by the lower node id (reported)."""
 

@@ -273,3 +273,28 @@ class NodeState:
     potential: float
     visits: int = 0
     is_master: bool = False
+
+
+@dataclass(frozen=True)
+class Target:
+    """The evidence arbitration's output (p_t, L_t, C_f) of paper Eq. 3-4 (see ``semexp_bt.evidence``).
+
+    Attributes:
+        pixel_px: ``(u, v)`` target location p_t in the image (fused by Eq. 4 when both sources exist).
+        label: semantic label L_t (the detection's label for a fused or object candidate).
+        fused_confidence: normalised fused confidence C_f in [0, 1] of Eq. 3.
+        source: ``"fused"`` (detection + scene proposal), ``"object"`` (detection only) or ``"scene"``
+            (scene proposal only).
+        kind: ``"direction"`` when the winner is a scene proposal of an unexplored direction, else
+            ``"object"``.
+        depth_m: robust (median) depth at ``pixel_px`` when a depth image was given and it has valid
+            pixels there, else None. It is reported as measured, even outside the feasible range (the
+            feasibility term kappa already penalised that).
+    """
+
+    pixel_px: tuple[float, float]
+    label: str
+    fused_confidence: float
+    source: Literal["fused", "object", "scene"]
+    kind: Literal["object", "direction"]
+    depth_m: float | None = None

@@ -1,0 +1,78 @@
+"""Arbitrate: confidence-calibrated evidence arbitration (paper Eq. 1-4) on the last perception.
+
+Semantics: reads ``scene_evidence``, ``detections`` and ``observation``, calls
+``semexp_bt.evidence.arbitrate`` and writes ``arbitration`` (every candidate with its score) and
+``target`` (the winner t* with its fused confidence C_f, or None). Always SUCCESS: an empty or
+all-zero candidate set is a valid outcome (``target`` is None and the reason is in the feedback).
+A label counts as instruction-aligned when its relevance to the instruction reaches
+``align_threshold``.
+
+Example:
+    - type: Arbitrate
+      name: Arbitrate
+      params: {align_threshold: 0.6}
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import py_trees
+
+from behaviours.base import SemExpBehaviour
+from behaviours.spec import BuildContext, ParamSpec
+from semexp_bt.evidence import arbitrate
+
+
+class Arbitrate(SemExpBehaviour):
+    READS = ("scene_evidence", "detections", "observation", "instruction")
+    WRITES = ("arbitration", "target")
+    PARAMS = {
+        "align_threshold": ParamSpec(
+            "float",
+            doc="relevance at which a label counts as the instructed object",
+            default=0.6,
+            ge=0.0,
+            le=1.0,
+        ),
+    }
+
+    def __init__(
+        self,
+        name: str,
+        *,
+        align_threshold: float = 0.6,
+        context: BuildContext,
+        remap: Mapping[str, str] | None = None,
+    ) -> None:
+        super().__init__(name, context=context, remap=remap)
+        self.align_threshold = align_threshold
+
+    def is_aligned(self, label: str) -> bool:
+        return (
+            self.services.relevance.score(instruction=self.read("instruction"), label=label)
+            >= self.align_threshold
+        )
+
+    def update(self) -> py_trees.common.Status:
+        observation = self.read("observation")
+        depth = observation.depth_m if observation is not None else None
+        size = (observation.intrinsics.width_px, observation.intrinsics.height_px) if observation else None
+        with self.timed("arbitration"):
+            result = arbitrate(
+                scene=self.read("scene_evidence"),
+                detections=self.read("detections"),
+                is_aligned=self.is_aligned,
+                config=self.services.config.arbitration,
+                depth_m=depth,
+                image_size=size,
+            )
+        self.write("arbitration", result)
+        self.write("target", result.target)
+        target = result.target
+        self.feedback_message = (
+            f"t*={target.label!r} C_f={target.fused_confidence:.2f} of {len(result.candidates)}"
+            if target is not None
+            else f"no target: {result.reason}"
+        )
+        return py_trees.common.Status.SUCCESS

@@ -1,0 +1,91 @@
+"""Decide: utility-driven subgoal selection on the topological memory (paper Eq. 8-10).
+
+Semantics: filters memory nodes by exploration potential (Eq. 8), scores each candidate with
+U = S^alpha C^beta P^eta exp(-gamma d) (Eq. 9) where S is the instruction relevance of the node's
+label and d the travel cost from the robot (graph shortest path or Euclidean, per config), and writes
+the greedy argmax (Eq. 10) to ``subgoal``. SUCCESS with a subgoal; FAILURE when the candidate set is
+empty or every utility is zero (the feedback says which), so a recovery branch can act. Every
+decision step, with all candidates and utilities, goes to the episode record.
+
+Example:
+    - type: Decide
+      name: Decide
+"""
+
+from __future__ import annotations
+
+import math
+
+import py_trees
+
+from behaviours.base import SemExpBehaviour
+from semexp_bt.decision import DecisionResult, decide
+from semexp_bt.decision_baselines import BASELINE_DECISIONS, select_subgoal
+
+
+class Decide(SemExpBehaviour):
+    READS = ("memory", "instruction")
+    WRITES = ("subgoal", "decision")
+
+    def update(self) -> py_trees.common.Status:
+        memory = self.read("memory")
+        pose = self.services.robot.base_pose()
+        config = self.services.config.decision
+        with self.timed("decision"):
+            costs = memory.travel_costs(from_position_m=(pose.x_m, pose.y_m, 0.0), mode=config.travel_cost)
+            result = self._choose(nodes=memory.nodes(), instruction=self.read("instruction"), costs=costs)
+        self.write("decision", result)
+        self.write("subgoal", result.subgoal)
+        self.services.decision_log.append(
+            {
+                "stamp_s": round(self.now_s(), 3),
+                "robot_xy": [round(pose.x_m, 3), round(pose.y_m, 3)],
+                "selected_node_id": None if result.subgoal is None else result.subgoal.node_id,
+                "reason": result.reason,
+                "candidates": [
+                    {
+                        "node_id": c.node_id,
+                        "label": c.label,
+                        "position_m": [round(v, 3) for v in c.position_m],
+                        "relevance": round(c.relevance, 4),
+                        "confidence": round(c.confidence, 4),
+                        "potential": round(c.potential, 4),
+                        "travel_cost_m": round(c.travel_cost_m, 3),
+                        "utility": round(c.utility, 6),
+                    }
+                    for c in result.candidates
+                ],
+            }
+        )
+        if result.subgoal is None:
+            self.feedback_message = f"no subgoal: {result.reason}"
+            return py_trees.common.Status.FAILURE
+        sg = result.subgoal
+        self.feedback_message = f"node {sg.node_id} {sg.label!r} U={sg.utility:.3f}"
+        return py_trees.common.Status.SUCCESS
+
+    def _choose(self, *, nodes: list, instruction: str, costs: dict[int, float]) -> DecisionResult:
+        """Eq. 8-10, or the strategy's baseline choice (``services.strategy["decision"]``).
+
+        The Eq. 9 weightings (utility, bayesian, llm_relevance, vlfm) are configs of :func:`decide`; the
+        other baselines (HOV-SG, nearest frontier, oracle) choose differently over the same candidates.
+        """
+        kind = self.services.strategy.get("decision", "utility")
+        config = self.services.config.decision
+        if kind not in BASELINE_DECISIONS:
+            return decide(nodes=nodes, instruction=instruction, relevance=self.services.relevance,
+                          travel_costs=costs, config=config)  # fmt: skip
+        goal_distances = None
+        if kind == "oracle":
+            # Privileged: the runner hands the true goal to the oracle strategy only.
+            distance = self.services.privileged_goal_distance
+            goal_xy = self.services.privileged_goal_xy
+            if distance is None and goal_xy is None:
+                raise RuntimeError("strategy 'oracle' needs services.privileged_goal_xy (set by the runner)")
+            goal_distances = {
+                n.node_id: (distance((n.position_m[0], n.position_m[1])) if distance is not None
+                            else math.hypot(n.position_m[0] - goal_xy[0], n.position_m[1] - goal_xy[1]))
+                for n in nodes
+            }  # fmt: skip
+        return select_subgoal(kind, nodes=nodes, instruction=instruction, relevance=self.services.relevance,
+                              travel_costs=costs, config=config, goal_distances_m=goal_distances)  # fmt: skip

@@ -1,0 +1,107 @@
+"""Perceive: event-triggered, asynchronous scene- and object-level perception at a stable viewpoint.
+
+Semantics: on its first tick it waits (RUNNING, commanding zero twist) until the base is still (a
+stable viewpoint: speed below ``stable_speed_mps`` and yaw rate below ``stable_yaw_rate_radps``), then
+grabs one RGB-D frame and submits it to the perception service, which runs the VLM and the detector
+in parallel. It stays RUNNING while the models think (sim-time latency in MuJoCo, worker threads on a
+real robot) and never blocks a tick. When both answered it writes ``observation``, ``scene_evidence``
+and ``detections`` and returns SUCCESS. FAILURE when no answer arrives within ``timeout_s``.
+
+Example:
+    - type: Perceive
+      name: Perceive
+      params: {timeout_s: 10}
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import py_trees
+
+from behaviours.base import SemExpBehaviour
+from behaviours.spec import BuildContext, ParamSpec
+from semexp_bt.perception import PerceptionJob
+from semexp_bt.types import Twist
+
+
+class Perceive(SemExpBehaviour):
+    READS = ("instruction", "target_label")
+    WRITES = ("observation", "scene_evidence", "detections", "cmd_twist", "cmd_stamp_s")
+    PARAMS = {
+        "stable_speed_mps": ParamSpec(
+            "float", doc="base speed below which the viewpoint is stable, m/s", default=0.05, gt=0.0
+        ),
+        "stable_yaw_rate_radps": ParamSpec(
+            "float", doc="yaw rate below which the viewpoint is stable, rad/s", default=0.1, gt=0.0
+        ),
+        "timeout_s": ParamSpec(
+            "float", doc="FAILURE if the models have not answered after this long, s", default=15.0, gt=0.0
+        ),
+    }
+
+    def __init__(
+        self,
+        name: str,
+        *,
+        stable_speed_mps: float = 0.05,
+        stable_yaw_rate_radps: float = 0.1,
+        timeout_s: float = 15.0,
+        context: BuildContext,
+        remap: Mapping[str, str] | None = None,
+    ) -> None:
+        super().__init__(name, context=context, remap=remap)
+        self.stable_speed_mps = stable_speed_mps
+        self.stable_yaw_rate_radps = stable_yaw_rate_radps
+        self.timeout_s = timeout_s
+        self._job: PerceptionJob | None = None
+        self._started_s = 0.0
+
+    def initialise(self) -> None:
+        self._job = None
+        self._started_s = self.now_s()
+
+    def _stable(self) -> bool:
+        twist = self.services.robot.base_twist()
+        speed = (twist.linear_x_mps**2 + twist.linear_y_mps**2) ** 0.5
+        return speed < self.stable_speed_mps and abs(twist.angular_z_radps) < self.stable_yaw_rate_radps
+
+    def update(self) -> py_trees.common.Status:
+        robot = self.services.robot
+        if self.now_s() - self._started_s > self.timeout_s:
+            self.feedback_message = "perception timed out"
+            self.services.log_event("perception_timeout")
+            return py_trees.common.Status.FAILURE
+        if self._job is None:
+            if not self._stable():
+                self.command(Twist.zero())
+                self.feedback_message = "waiting for a stable viewpoint"
+                return py_trees.common.Status.RUNNING
+            observation = robot.observe()
+            self.write("observation", observation)
+            self._job = self.services.perception.submit(
+                observation=observation,
+                instruction=self.read("instruction"),
+                target_label=self.read("target_label"),
+                motion=robot.base_twist(),
+                now_s=self.now_s(),
+            )
+            self.feedback_message = "models thinking"
+            return py_trees.common.Status.RUNNING
+        result = self._job.poll(now_s=self.now_s())
+        if result is None:
+            return py_trees.common.Status.RUNNING
+        self.write("scene_evidence", result.scene)
+        self.write("detections", None if result.detections is None else tuple(result.detections))
+        for error in result.errors:
+            self.services.log_event("perception_error", message=error)
+        n_det = "no" if result.detections is None else len(result.detections)
+        self.feedback_message = f"{n_det} detections, " + (
+            f"{len(result.scene.proposals)} proposals" if result.scene else "no scene evidence"
+        )
+        return py_trees.common.Status.SUCCESS
+
+    def terminate(self, new_status: py_trees.common.Status) -> None:
+        if new_status == py_trees.common.Status.INVALID and self._job is not None:
+            self._job.cancel()
+        self._job = None

@@ -1,0 +1,141 @@
+"""UpdateMemory: grow the topological memory from the arbitrated evidence (paper Eq. 5-7).
+
+Semantics: back-projects the target pixel through the frame's intrinsics and camera-to-world
+transform (Eq. 5) and offers the point to the memory's gated insert-or-merge (Eq. 6). Candidates
+other than t* whose normalised score also passes the memory's C_f gate are offered too (so one view
+can add an object and an unexplored direction), and so are the context objects the VLM named
+(landmarks, e.g. "shelving rack"), weighted by the calibrated scene confidence. Directions and
+landmarks are places to go, not objects to touch: their node stands ``standoff_m`` in front of the
+surface the pixel sees, at most ``direction_range_m`` ahead. Then the surroundings of the robot count as observed (Eq. 7 decay), and a subgoal the
+robot now stands at is marked visited. Always SUCCESS; rejected offers are reported in the feedback.
+
+Example:
+    - type: UpdateMemory
+      name: UpdateMemory
+      params: {direction_range_m: 3.0}
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+
+import numpy as np
+import py_trees
+
+from behaviours.base import SemExpBehaviour
+from behaviours.spec import BuildContext, ParamSpec
+from semexp_bt.evidence import calibrate
+from semexp_bt.geometry import back_project, robust_depth
+
+
+class UpdateMemory(SemExpBehaviour):
+    READS = ("arbitration", "target", "observation", "subgoal", "scene_evidence")
+    WRITES = ("memory",)
+    PARAMS = {
+        "direction_range_m": ParamSpec(
+            "float", doc="depth cap for unexplored-direction proposals, m", default=3.0, gt=0.0
+        ),
+        "visit_radius_m": ParamSpec(
+            "float", doc="a subgoal within this distance counts as visited, m", default=1.0, gt=0.0
+        ),
+        "standoff_m": ParamSpec(
+            "float", doc="place nodes (directions, landmarks) stop this far in front of the seen surface, m",
+            default=0.6, ge=0.0,
+        ),
+        "landmark_weight": ParamSpec(
+            "float", doc="confidence of a VLM-named landmark node relative to the calibrated scene confidence "
+            "(0: no landmark nodes)", default=0.8, ge=0.0, le=1.0,
+        ),
+        "offer_all_candidates": ParamSpec(
+            "bool", doc="offer every candidate (not only t*) to the gated insert", default=True
+        ),
+    }
+
+    def __init__(
+        self,
+        name: str,
+        *,
+        direction_range_m: float = 3.0,
+        visit_radius_m: float = 1.0,
+        offer_all_candidates: bool = True,
+        standoff_m: float = 0.6,
+        landmark_weight: float = 0.8,
+        context: BuildContext,
+        remap: Mapping[str, str] | None = None,
+    ) -> None:
+        super().__init__(name, context=context, remap=remap)
+        self.direction_range_m = direction_range_m
+        self.visit_radius_m = visit_radius_m
+        self.offer_all_candidates = offer_all_candidates
+        self.standoff_m = standoff_m
+        self.landmark_weight = landmark_weight
+        self.min_place_depth_m = 0.5
+
+    def _offers(self) -> list[tuple[tuple[float, float], str, float, bool]]:
+        """(pixel, label, confidence, is_place) for t*, the other candidates and the scene's landmarks.
+
+        ``is_place`` marks offers that stand for a place to go to rather than an object to reach (an
+        unexplored direction, a landmark the VLM named): their node goes ``standoff_m`` in front of
+        the surface the pixel sees, so the subgoal is somewhere the robot can stand.
+        """
+        result = self.read("arbitration")
+        target = self.read("target")
+        offers: list[tuple[tuple[float, float], str, float, bool]] = []
+        if target is not None and result is not None:
+            offers.append((target.pixel_px, target.label, target.fused_confidence, target.kind == "direction"))
+            if self.offer_all_candidates:
+                for cand in result.candidates:
+                    if cand.pixel_px == target.pixel_px and cand.label == target.label:
+                        continue
+                    offers.append((cand.pixel_px, cand.label, cand.normalised_score, cand.kind == "direction"))
+        scene = self.read("scene_evidence")
+        if self.landmark_weight > 0.0 and scene is not None:
+            # The VLM also names context objects that are not candidates for the target ("shelving rack",
+            # "desk"); kept as landmark nodes they give the decision semantic places to explore, with the
+            # relevance scorer deciding how much each says about the instruction.
+            candidate_pixels = {tuple(c.pixel_px) for c in (result.candidates if result is not None else ())}
+            weight = calibrate(scene.scene_confidence, self.services.config.arbitration.tau) * self.landmark_weight
+            for proposal in scene.proposals:
+                if proposal.kind == "object" and tuple(proposal.point_px) not in candidate_pixels:
+                    offers.append((proposal.point_px, proposal.label, weight, True))
+        return offers
+
+    def update(self) -> py_trees.common.Status:
+        memory = self.read("memory")
+        observation = self.read("observation")
+        pose = self.services.robot.base_pose()
+        robot_xyz = (pose.x_m, pose.y_m, 0.0)
+        outcomes: list[str] = []
+        with self.timed("memory_update"):
+            if observation is not None:
+                patch = self.services.config.arbitration.depth_patch_px
+                for pixel, label, confidence, is_place in self._offers():
+                    depth = robust_depth(observation.depth_m, pixel, patch)
+                    if is_place:
+                        seen = self.direction_range_m if depth is None else depth
+                        depth = max(self.min_place_depth_m, min(seen - self.standoff_m, self.direction_range_m))
+                    if depth is None or not math.isfinite(depth):
+                        outcomes.append(f"{label}: no depth")
+                        continue
+                    point = back_project(
+                        pixel_px=pixel,
+                        depth_m=depth,
+                        intrinsics=observation.intrinsics,
+                        camera_to_world=observation.camera_to_world,
+                    )
+                    result = memory.update(
+                        position_m=tuple(float(v) for v in point),
+                        label=label,
+                        confidence=float(np.clip(confidence, 0.0, 1.0)),
+                        stamp_s=self.now_s(),
+                    )
+                    outcomes.append(f"{label}: {result.action}")
+            memory.observe_surroundings(robot_position_m=robot_xyz)
+            subgoal = self.read("subgoal")
+            if subgoal is not None and subgoal.node_id in memory.graph:
+                gx, gy, _ = subgoal.position_m
+                if math.hypot(gx - pose.x_m, gy - pose.y_m) <= self.visit_radius_m:
+                    memory.mark_visited(node_id=subgoal.node_id)
+        self.feedback_message = f"{len(memory)} nodes; " + ", ".join(outcomes[:4])
+        return py_trees.common.Status.SUCCESS

@@ -1,0 +1,548 @@
+"""The MuJoCo backend of :class:`robots.interface.Robot`, in two fidelities.
+
+- ``kinematic``: a planar base (slide x, slide y, hinge yaw) carrying the Go1 trunk shape, a box bounding
+  the standing legs and the head camera. Each control period it integrates the commanded twist under
+  Go1-like speed and acceleration limits and sets qpos; a move that would make the robot penetrate an
+  obstacle (signed distance < 0 by ``mj_geomDistance``) is not taken, the base stops and a collision
+  event is recorded. No dynamics run: it is for fast mission and benchmark runs.
+- ``dynamic``: the full Go1 on a free joint. ``mj_step`` runs at the physics rate, the 12 position
+  actuators hold the last joint targets (the standing pose until the gait sends others). The commanded
+  twist is stored for the gait (a later issue); until then the robot stands.
+
+Safety (both fidelities, once per control period): signed distances between the robot's geoms and every
+obstacle geom near it (``mj_geomDistance``, exact for boxes and cylinders). An object enters the
+"collision" set when a distance is <= 0 and the "clearance" set when it is < ``clearance_m``; each time
+an object enters a set a :class:`ContactEvent` is appended (edge-triggered with a 3 cm release
+hysteresis: pushing into a wall for 5 s is one event, backing off and touching it again is a second). ``min_clearance_m`` is the smallest distance
+at the last check, exact up to ``clearance_m + CLEARANCE_SENSE_MARGIN_M`` and ``inf`` beyond.
+
+Rendering happens only in :meth:`MujocoRobot.observe`; the GL context is created on the first call.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+import numpy.typing as npt
+
+from robots.camera import CameraConfig, RgbdCamera
+from robots.go1 import (
+    CAMERA_NAME,
+    IMU_ACCELEROMETER_SENSOR,
+    IMU_GYRO_SENSOR,
+    IMU_ORIENTATION_SENSOR,
+    NUM_JOINTS,
+    TRUNK_BODY_NAME,
+    load_go1_spec,
+)
+from robots.interface import Fidelity, Robot
+from robots.mjcf_scene import FIDELITIES, build_mjcf, geom_object_ids, robot_geom_ids
+from semexp_bt.scene import SceneSpec
+from semexp_bt.types import (
+    ContactEvent,
+    FloatArray,
+    ImuReading,
+    InvalidInputError,
+    JointState,
+    Observation,
+    Pose2D,
+    SafetyState,
+    Twist,
+    require_finite,
+)
+
+#: Standard gravity (m/s^2), what an accelerometer at rest reads upwards.
+GRAVITY_MPS2 = 9.81
+
+#: Distances are computed up to ``clearance_m`` plus this (m); beyond it ``min_clearance_m`` is inf.
+CLEARANCE_SENSE_MARGIN_M = 0.5
+
+#: Hysteresis (m): an object leaves the collision (clearance) set only once the robot is this much beyond
+#: contact (the clearance distance). A blocked kinematic base stops up to one control step (2 cm at
+#: 1 m/s) short of the obstacle and creeps on; without hysteresis every creep would be a new event.
+EVENT_RELEASE_MARGIN_M = 0.03
+
+#: Physics time the dynamic robot stands before the clock starts, so that the PD sag is over (s).
+SETTLE_S = 1.0
+
+_TIME_EPS_S = 1e-9
+
+
+@dataclass(frozen=True)
+class BaseMotionLimits:
+    """Speed and acceleration limits of the base (the Go1's own walking controller's envelope).
+
+    Attributes:
+        max_forward_mps: |v_x| limit (Go1 normal walking mode: about 1 m/s).
+        max_lateral_mps: |v_y| limit.
+        max_yaw_radps: |w_z| limit.
+        max_linear_accel_mps2: per-axis linear acceleration limit (the Go1 reaches 1 m/s in about 0.5 s).
+        max_yaw_accel_radps2: yaw acceleration limit.
+    """
+
+    max_forward_mps: float = 1.0
+    max_lateral_mps: float = 0.5
+    max_yaw_radps: float = 1.5
+    max_linear_accel_mps2: float = 2.0
+    max_yaw_accel_radps2: float = 4.0
+
+    def __post_init__(self) -> None:
+        for name, value in vars(self).items():
+            if not math.isfinite(value) or value <= 0.0:
+                raise InvalidInputError(
+                    f"BaseMotionLimits.{name} must be a positive finite number, got {value!r}"
+                )
+
+    def clamp(self, twist: Twist) -> FloatArray:
+        """The twist as ``(vx, vy, wz)``, each clipped to its speed limit."""
+        return np.array(
+            [
+                np.clip(twist.linear_x_mps, -self.max_forward_mps, self.max_forward_mps),
+                np.clip(twist.linear_y_mps, -self.max_lateral_mps, self.max_lateral_mps),
+                np.clip(twist.angular_z_radps, -self.max_yaw_radps, self.max_yaw_radps),
+            ]
+        )
+
+    def accel_limits(self) -> FloatArray:
+        return np.array([self.max_linear_accel_mps2, self.max_linear_accel_mps2, self.max_yaw_accel_radps2])
+
+
+@dataclass(frozen=True)
+class ImuNoise:
+    """White noise added to IMU readings (zero-mean Gaussian standard deviations).
+
+    Defaults are a MEMS IMU of the Go1's class (BMI088-like noise densities over a ~500 Hz band).
+    """
+
+    gyro_std_radps: float = 0.005
+    accel_std_mps2: float = 0.04
+
+    def __post_init__(self) -> None:
+        for name, value in vars(self).items():
+            if not math.isfinite(value) or value < 0.0:
+                raise InvalidInputError(
+                    f"ImuNoise.{name} must be a non-negative finite number, got {value!r}"
+                )
+
+
+def _yaw_from_quat(quat_wxyz: FloatArray) -> float:
+    w, x, y, z = quat_wxyz
+    return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+
+
+def _roll_pitch_from_quat(quat_wxyz: FloatArray) -> tuple[float, float]:
+    w, x, y, z = quat_wxyz
+    roll = math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
+    pitch = math.asin(max(-1.0, min(1.0, 2.0 * (w * y - z * x))))
+    return roll, pitch
+
+
+def _yaw_quat(yaw_rad: float) -> FloatArray:
+    return np.array([math.cos(yaw_rad / 2.0), 0.0, 0.0, math.sin(yaw_rad / 2.0)])
+
+
+def _wrap_angle(angle_rad: float) -> float:
+    return (angle_rad + math.pi) % (2.0 * math.pi) - math.pi
+
+
+class MujocoRobot(Robot):
+    """A Go1 with a head RGB-D camera in a MuJoCo scene.
+
+    Args:
+        scene: the scene to build.
+        fidelity: ``"kinematic"`` or ``"dynamic"``.
+        start_pose: the base pose at t = 0.
+        seed: seeds the IMU noise generator.
+        camera: the head camera; the default :class:`CameraConfig` (320x240 render) when None.
+        clearance_m: distance below which an obstacle counts as a clearance breach.
+        physics_dt_s: physics timestep; the model's (0.002 s) when None.
+        control_dt_s: the command period (gait rate, 50 Hz): the kinematic integration step and the
+            safety-check period. Must be a whole number of physics steps.
+        motion_limits: speed/acceleration limits of the kinematic base.
+        imu_noise: IMU noise; :class:`ImuNoise` defaults when None.
+
+    Raises:
+        InvalidInputError: a non-finite start pose, a bad clearance or timestep (naming the field).
+        ValueError: an unknown fidelity or a malformed scene.
+    """
+
+    def __init__(
+        self,
+        *,
+        scene: SceneSpec,
+        fidelity: Fidelity,
+        start_pose: Pose2D,
+        seed: int,
+        camera: CameraConfig | None = None,
+        clearance_m: float = 0.1,
+        physics_dt_s: float | None = None,
+        control_dt_s: float = 0.02,
+        motion_limits: BaseMotionLimits | None = None,
+        imu_noise: ImuNoise | None = None,
+    ) -> None:
+        if fidelity not in FIDELITIES:
+            raise ValueError(f"fidelity must be one of {FIDELITIES}, got {fidelity!r}")
+        require_finite("start_pose", [start_pose.x_m, start_pose.y_m, start_pose.yaw_rad])
+        require_finite("clearance_m", clearance_m)
+        if clearance_m < 0.0:
+            raise InvalidInputError(f"clearance_m must be >= 0, got {clearance_m}")
+        self._fidelity: Fidelity = fidelity
+        self._scene = scene
+        self._camera_config = camera or CameraConfig()
+        self._clearance_m = float(clearance_m)
+        self._limits = motion_limits or BaseMotionLimits()
+        self._imu_noise = imu_noise or ImuNoise()
+        self._rng = np.random.default_rng(seed)
+        self._spec = load_go1_spec()
+
+        self.model = mujoco.MjModel.from_xml_string(
+            build_mjcf(scene, fidelity=fidelity, camera=self._camera_config)
+        )
+        if physics_dt_s is not None:
+            require_finite("physics_dt_s", physics_dt_s)
+            if physics_dt_s <= 0.0:
+                raise InvalidInputError(f"physics_dt_s must be > 0, got {physics_dt_s}")
+            self.model.opt.timestep = physics_dt_s
+        self.physics_dt_s = float(self.model.opt.timestep)
+        require_finite("control_dt_s", control_dt_s)
+        substeps = control_dt_s / self.physics_dt_s
+        if control_dt_s <= 0.0 or round(substeps) < 1 or abs(substeps - round(substeps)) > 1e-6:
+            raise InvalidInputError(
+                f"control_dt_s={control_dt_s} must be a positive whole multiple of physics_dt_s={self.physics_dt_s}"
+            )
+        self.control_dt_s = float(control_dt_s)
+        self._substeps = int(round(substeps))
+        self.data = mujoco.MjData(self.model)
+
+        self._trunk_body = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, TRUNK_BODY_NAME)
+        self._robot_geoms = robot_geom_ids(self.model)
+        object_of_geom = geom_object_ids(self.model)
+        obstacle_ids = {obj.object_id for obj in scene.objects if obj.is_obstacle}
+        self._obstacle_geoms = np.array(
+            [g for g in range(self.model.ngeom) if int(object_of_geom[g]) in obstacle_ids], dtype=np.int32
+        )
+        self._object_of_geom = object_of_geom
+        self._camera: RgbdCamera | None = None
+
+        self._command = Twist.zero()
+        self._base_velocity = np.zeros(3)  # kinematic (vx, vy, wz) in the body frame
+        self._base_accel = np.zeros(3)  # kinematic (ax, ay, yaw accel) in the body frame
+        self._joint_targets = self._spec.standing_pose_rad.copy()
+        self._fallen = False
+        self._events: list[ContactEvent] = []
+        self._in_collision: set[int] = set()
+        self._in_clearance: set[int] = set()
+        self._min_clearance_m = math.inf
+        self._clock_target_s = 0.0
+
+        self._place_robot(start_pose)
+        self._obstacle_aabb_min, self._obstacle_aabb_max = self._obstacle_world_aabbs()
+        self._robot_radius_m = self._robot_bounding_radius()
+        self._check_safety()
+
+    # ------------------------------------------------------------------ setup
+
+    def _place_robot(self, pose: Pose2D) -> None:
+        if self._fidelity == "kinematic":
+            self.data.qpos[:3] = [pose.x_m, pose.y_m, pose.yaw_rad]
+            mujoco.mj_kinematics(self.model, self.data)
+            return
+        self.data.qpos[:3] = [pose.x_m, pose.y_m, self._spec.home_trunk_height_m]
+        self.data.qpos[3:7] = _yaw_quat(pose.yaw_rad)
+        self.data.qpos[7 : 7 + NUM_JOINTS] = self._spec.standing_pose_rad
+        self.data.ctrl[:] = self._joint_targets
+        # Let the PD sag settle, then put the base back where it was asked to start: the clock starts at
+        # 0 with the robot standing still, not dropping onto its legs.
+        for _ in range(int(round(SETTLE_S / self.physics_dt_s))):
+            mujoco.mj_step(self.model, self.data)
+        self.data.qpos[0] += pose.x_m - self.data.qpos[0]
+        self.data.qpos[1] += pose.y_m - self.data.qpos[1]
+        self.data.qvel[:] = 0.0
+        self.data.time = 0.0
+        mujoco.mj_forward(self.model, self.data)
+
+    def _obstacle_world_aabbs(self) -> tuple[FloatArray, FloatArray]:
+        """World AABBs of the static obstacle geoms (they never move, so once)."""
+        geoms = self._obstacle_geoms
+        if geoms.size == 0:
+            return np.zeros((0, 3)), np.zeros((0, 3))
+        local = self.model.geom_aabb[geoms]
+        rotation = self.data.geom_xmat[geoms].reshape(-1, 3, 3)
+        centre = self.data.geom_xpos[geoms] + np.einsum("nij,nj->ni", rotation, local[:, :3])
+        half = np.einsum("nij,nj->ni", np.abs(rotation), local[:, 3:])
+        return centre - half, centre + half
+
+    def _robot_bounding_radius(self) -> float:
+        trunk = self.data.xpos[self._trunk_body]
+        reach = np.linalg.norm(self.data.geom_xpos[self._robot_geoms] - trunk, axis=1)
+        return float(np.max(reach + self.model.geom_rbound[self._robot_geoms]))
+
+    # ------------------------------------------------------------------ safety
+
+    def _obstacle_distances(self) -> dict[int, float]:
+        """Smallest signed distance robot -> each scene object within the sensing range, by object id."""
+        sense_m = self._clearance_m + CLEARANCE_SENSE_MARGIN_M
+        if self._obstacle_geoms.size == 0:
+            return {}
+        trunk = self.data.xpos[self._trunk_body]
+        gap = np.maximum(self._obstacle_aabb_min - trunk, 0.0) + np.maximum(
+            trunk - self._obstacle_aabb_max, 0.0
+        )
+        near = self._obstacle_geoms[np.linalg.norm(gap, axis=1) <= self._robot_radius_m + sense_m]
+        distances: dict[int, float] = {}
+        for obstacle in near:
+            object_id = int(self._object_of_geom[obstacle])
+            for robot_geom in self._robot_geoms:
+                distance = mujoco.mj_geomDistance(
+                    self.model, self.data, int(robot_geom), int(obstacle), sense_m, None
+                )
+                if distance < sense_m and distance < distances.get(object_id, math.inf):
+                    distances[object_id] = float(distance)
+        return distances
+
+    def _record(self, distances: dict[int, float]) -> None:
+        now = self.now_s()
+        colliding = {
+            oid
+            for oid, dist in distances.items()
+            if dist <= 0.0 or (oid in self._in_collision and dist < EVENT_RELEASE_MARGIN_M)
+        }
+        close = {
+            oid
+            for oid, dist in distances.items()
+            if dist < self._clearance_m
+            or (oid in self._in_clearance and dist < self._clearance_m + EVENT_RELEASE_MARGIN_M)
+        }
+        for object_id in sorted(close - self._in_clearance):
+            self._events.append(ContactEvent(now, object_id, distances[object_id], "clearance"))
+        for object_id in sorted(colliding - self._in_collision):
+            self._events.append(ContactEvent(now, object_id, distances[object_id], "collision"))
+        self._in_collision, self._in_clearance = colliding, close
+
+    def _check_safety(self, blocked: dict[int, float] | None = None) -> None:
+        distances = self._obstacle_distances()
+        self._min_clearance_m = min(distances.values(), default=math.inf)
+        if blocked:
+            # The kinematic base stopped short of these objects: it touched them.
+            for object_id, distance in blocked.items():
+                distances[object_id] = min(distance, distances.get(object_id, math.inf))
+        self._record(distances)
+        if self._fidelity == "dynamic":
+            roll, pitch = _roll_pitch_from_quat(self.data.qpos[3:7])
+            tipped = max(abs(roll), abs(pitch)) > self._spec.fall_tilt_rad
+            low = self.data.qpos[2] < self._spec.fall_trunk_height_m
+            self._fallen = bool(self._fallen or tipped or low)
+
+    # ------------------------------------------------------------------ stepping
+
+    def _kinematic_step(self, dt_s: float) -> None:
+        target = self._limits.clamp(self._command)
+        max_change = self._limits.accel_limits() * dt_s
+        previous_velocity = self._base_velocity
+        velocity = previous_velocity + np.clip(target - previous_velocity, -max_change, max_change)
+        x, y, yaw = (float(v) for v in self.data.qpos[:3])
+        mid_yaw = yaw + 0.5 * velocity[2] * dt_s
+        cos_yaw, sin_yaw = math.cos(mid_yaw), math.sin(mid_yaw)
+        proposed = np.array(
+            [
+                x + (cos_yaw * velocity[0] - sin_yaw * velocity[1]) * dt_s,
+                y + (sin_yaw * velocity[0] + cos_yaw * velocity[1]) * dt_s,
+                _wrap_angle(yaw + velocity[2] * dt_s),
+            ]
+        )
+        before = self._min_clearance_m
+        self.data.qpos[:3] = proposed
+        mujoco.mj_kinematics(self.model, self.data)
+        distances = self._obstacle_distances()
+        after = min(distances.values(), default=math.inf)
+        # Refuse a move into penetration; a base that already penetrates (a bad start pose) may still move
+        # as long as it does not go deeper, so that it can get out.
+        blocked = after < 0.0 and after < before
+        if blocked:
+            self.data.qpos[:3] = [x, y, yaw]
+            mujoco.mj_kinematics(self.model, self.data)
+            velocity = np.zeros(3)
+        self._base_accel = (velocity - previous_velocity) / dt_s
+        self._base_velocity = velocity
+        self.data.time += dt_s
+        self._check_safety({oid: d for oid, d in distances.items() if d <= 0.0} if blocked else None)
+
+    def _dynamic_step(self, dt_s: float) -> None:
+        self.data.ctrl[:] = self._joint_targets
+        for _ in range(max(1, int(round(dt_s / self.physics_dt_s)))):
+            mujoco.mj_step(self.model, self.data)
+        self._check_safety()
+
+    def advance(self, duration_s: float) -> None:
+        """Step the simulation by ``duration_s`` (rounded to whole physics steps), one control period at a time."""
+        require_finite("duration_s", duration_s)
+        if duration_s < 0.0:
+            raise InvalidInputError(f"duration_s must be >= 0, got {duration_s}")
+        # A target clock that accumulates the requested durations keeps many short advances from drifting.
+        self._clock_target_s += duration_s
+        step = self._kinematic_step if self._fidelity == "kinematic" else self._dynamic_step
+        while self._clock_target_s - self.data.time > 0.5 * self.physics_dt_s:
+            remaining = self._clock_target_s - self.data.time
+            period = min(self.control_dt_s, remaining)
+            if self._fidelity == "dynamic":
+                period = max(1, round(period / self.physics_dt_s)) * self.physics_dt_s
+            step(period)
+
+    # ------------------------------------------------------------------ Robot interface
+
+    @property
+    def fidelity(self) -> Fidelity:
+        return self._fidelity
+
+    @property
+    def commanded_twist(self) -> Twist:
+        """The last twist passed to :meth:`command_twist` (read by the gait in dynamic fidelity)."""
+        return self._command
+
+    def now_s(self) -> float:
+        return float(self.data.time)
+
+    def base_pose(self) -> Pose2D:
+        if self._fidelity == "kinematic":
+            x, y, yaw = (float(v) for v in self.data.qpos[:3])
+            return Pose2D(x, y, yaw)
+        return Pose2D(float(self.data.qpos[0]), float(self.data.qpos[1]), _yaw_from_quat(self.data.qpos[3:7]))
+
+    def base_twist(self) -> Twist:
+        if self._fidelity == "kinematic":
+            vx, vy, wz = (float(v) for v in self._base_velocity)
+            return Twist(vx, vy, wz)
+        rotation = self.data.xmat[self._trunk_body].reshape(3, 3)
+        linear_body = rotation.T @ self.data.qvel[:3]
+        return Twist(float(linear_body[0]), float(linear_body[1]), float(self.data.qvel[5]))
+
+    def joint_state(self) -> JointState:
+        if self._fidelity == "kinematic":
+            return JointState(position_rad=np.zeros(NUM_JOINTS), velocity_radps=np.zeros(NUM_JOINTS))
+        return JointState(
+            position_rad=self.data.qpos[7 : 7 + NUM_JOINTS].copy(),
+            velocity_radps=self.data.qvel[6 : 6 + NUM_JOINTS].copy(),
+        )
+
+    def imu(self) -> ImuReading:
+        if self._fidelity == "kinematic":
+            vx, vy, wz = self._base_velocity
+            ax, ay, _ = self._base_accel
+            gyro = np.array([0.0, 0.0, wz])
+            # Body-frame acceleration of a planar rigid body: dv/dt + w x v, plus the reaction to gravity.
+            accel = np.array([ax - wz * vy, ay + wz * vx, GRAVITY_MPS2])
+            orientation = _yaw_quat(float(self.data.qpos[2]))
+        else:
+            gyro = self._sensor(IMU_GYRO_SENSOR).copy()
+            accel = self._sensor(IMU_ACCELEROMETER_SENSOR).copy()
+            orientation = self._sensor(IMU_ORIENTATION_SENSOR).copy()
+        gyro += self._rng.normal(0.0, self._imu_noise.gyro_std_radps, 3)
+        accel += self._rng.normal(0.0, self._imu_noise.accel_std_mps2, 3)
+        return ImuReading(
+            angular_velocity_radps=gyro, linear_acceleration_mps2=accel, orientation_wxyz=orientation
+        )
+
+    def _sensor(self, name: str) -> FloatArray:
+        return np.asarray(self.data.sensor(name).data, dtype=float)
+
+    def command_twist(self, twist: Twist) -> None:
+        require_finite("twist", [twist.linear_x_mps, twist.linear_y_mps, twist.angular_z_radps])
+        self._command = twist
+
+    def command_joint_targets(self, targets_rad: npt.NDArray[np.float64]) -> None:
+        """Set the 12 actuator targets (clipped to the joint ranges).
+
+        In kinematic fidelity the legs are not simulated: the targets are validated and kept, and the base
+        keeps following :meth:`command_twist`.
+        """
+        targets = np.asarray(targets_rad, dtype=float)
+        if targets.shape != (NUM_JOINTS,):
+            raise InvalidInputError(f"targets_rad must have shape ({NUM_JOINTS},), got {targets.shape}")
+        require_finite("targets_rad", targets)
+        self._joint_targets = np.clip(targets, self._spec.joint_lower_rad, self._spec.joint_upper_rad)
+        if self._fidelity == "dynamic":
+            self.data.ctrl[:] = self._joint_targets
+
+    def stop(self) -> None:
+        """Zero the twist (the kinematic base decelerates at its limit) and hold the standing pose."""
+        self._command = Twist.zero()
+        self._joint_targets = self._spec.standing_pose_rad.copy()
+        if self._fidelity == "dynamic":
+            self.data.ctrl[:] = self._joint_targets
+
+    def safety(self) -> SafetyState:
+        return SafetyState(
+            fallen=self._fallen, events=list(self._events), min_clearance_m=self._min_clearance_m
+        )
+
+    def _ready_camera(self) -> RgbdCamera:
+        if self._camera is None:
+            self._camera = RgbdCamera(
+                self.model,
+                config=self._camera_config,
+                camera_name=CAMERA_NAME,
+                geom_object_ids=self._object_of_geom,
+            )
+        mujoco.mj_kinematics(self.model, self.data)
+        mujoco.mj_camlight(self.model, self.data)
+        return self._camera
+
+    def observe(self) -> Observation:
+        """Render the head camera now (RGB, depth, segmentation) with the pose it was taken at."""
+        camera = self._ready_camera()
+        frame = camera.render(self.data)
+        return Observation(
+            rgb=frame.rgb,
+            depth_m=frame.depth_m,
+            intrinsics=camera.intrinsics,
+            camera_to_world=camera.camera_to_world(self.data),
+            base_pose=self.base_pose(),
+            stamp_s=self.now_s(),
+            segmentation=frame.segmentation,
+        )
+
+    def observe_depth(self) -> Observation:
+        """Depth only (one GL pass, no colour read, no segmentation): ``rgb`` is ``(0, 0, 3)``."""
+        camera = self._ready_camera()
+        return Observation(
+            rgb=np.empty((0, 0, 3), dtype=np.uint8),
+            depth_m=camera.render_depth(self.data),
+            intrinsics=camera.intrinsics,
+            camera_to_world=camera.camera_to_world(self.data),
+            base_pose=self.base_pose(),
+            stamp_s=self.now_s(),
+            segmentation=None,
+        )
+
+    def teleport(self, pose: Pose2D) -> None:
+        """Move the base to ``pose`` at once, at rest (for view sampling and tests; not part of ``Robot``).
+
+        The clock and the event log are kept; safety is re-checked at the new pose. The dynamic robot is
+        re-placed standing and settles again (``SETTLE_S`` of physics, clock restored).
+        """
+        require_finite("pose", [pose.x_m, pose.y_m, pose.yaw_rad])
+        now = self.data.time
+        self._base_velocity = np.zeros(3)
+        self._base_accel = np.zeros(3)
+        if self._fidelity == "dynamic":
+            self.data.qvel[:] = 0.0
+            self._joint_targets = self._spec.standing_pose_rad.copy()
+        self._place_robot(pose)
+        self.data.time = now
+        self._check_safety()
+
+    @property
+    def camera(self) -> RgbdCamera | None:
+        """The head camera once :meth:`observe` has created it (for benchmarks)."""
+        return self._camera
+
+    def close(self) -> None:
+        if self._camera is not None:
+            self._camera.close()
+            self._camera = None
+
+
+__all__ = ["BaseMotionLimits", "ImuNoise", "MujocoRobot"]

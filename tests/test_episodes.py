@@ -1,0 +1,120 @@
+"""Episode sampler: deterministic per seed, starts on free reachable space, respects the minimum L*."""
+
+from __future__ import annotations
+
+import json
+import math
+from functools import cache
+
+import pytest
+
+from semexp_bt.scene import SceneObject, SceneSpec
+from semexp_bt.types import InvalidInputError
+from sims.catalogue import build_scene, list_scenes
+from sims.episodes import GOAL_SUCCESS_RADIUS_M, EpisodeSamplingError, sample_episode, scene_min_geodesic_m
+from sims.geodesic import GeodesicOracle
+from sims.robot_footprint import ROBOT_RADIUS_M
+
+#: The per-scene minimum L* documented in docs/scenes.md.
+DOCUMENTED_MIN_GEODESIC_M = {
+    "garden_sim": 3.0,
+    "sidewalk": 3.0,
+    "road": 3.0,
+    "warehouse_a": 3.0,
+    "warehouse_b": 3.0,
+    "office": 2.5,
+    "showroom": 3.0,
+    "laboratory": 2.5,
+    "living_room": 2.5,
+    "garden_real": 3.0,
+}
+
+
+@cache
+def scene_and_oracle(name: str, seed: int) -> tuple[SceneSpec, GeodesicOracle]:
+    spec = build_scene(name, seed=seed)
+    return spec, GeodesicOracle(spec)
+
+
+@pytest.mark.parametrize("name", list_scenes())
+def test_starts_are_free_reachable_and_far_enough(name: str) -> None:
+    assert scene_min_geodesic_m(scene_and_oracle(name, 0)[0]) == DOCUMENTED_MIN_GEODESIC_M[name]
+    for scene_seed in (0, 1):
+        spec, oracle = scene_and_oracle(name, scene_seed)
+        for seed in range(8):
+            episode = sample_episode(spec, seed=seed, oracle=oracle)
+            start = (episode.start.x_m, episode.start.y_m)
+            assert oracle.is_free(start)
+            cell = oracle.occupancy.geometry.cell_of(start)
+            assert oracle.occupancy.clearance_m[cell] >= ROBOT_RADIUS_M
+            assert episode.geodesic_length_m >= DOCUMENTED_MIN_GEODESIC_M[name]
+            assert math.isfinite(episode.geodesic_length_m)
+            assert (
+                episode.geodesic_length_m
+                >= math.dist(start, spec.goal.position_m[:2])
+                - max(spec.goal.size_m[:2]) * math.sqrt(2)
+                - GOAL_SUCCESS_RADIUS_M
+                - 0.1
+            )
+            assert -math.pi <= episode.start.yaw_rad < math.pi
+            assert (
+                episode.goal_object_id == spec.goal_object_id and episode.goal_category == spec.goal_category
+            )
+
+
+@pytest.mark.parametrize("name", ["office", "warehouse_a"])
+def test_same_seed_same_episode_and_seeds_differ(name: str) -> None:
+    spec = build_scene(name, seed=5)
+    first = sample_episode(spec, seed=11)
+    again = sample_episode(build_scene(name, seed=5), seed=11)  # fresh scene, fresh oracle
+    assert first == again
+    starts = {
+        sample_episode(spec, seed=seed, oracle=scene_and_oracle(name, 5)[1]).start for seed in range(10)
+    }
+    assert len(starts) == 10
+    json.dumps(first.to_dict())  # JSON-ready
+
+
+def test_geodesic_length_is_the_oracles_distance_to_the_goal() -> None:
+    spec, oracle = scene_and_oracle("showroom", 2)
+    episode = sample_episode(spec, seed=3, oracle=oracle)
+    expected = GeodesicOracle(spec).distance_to_object(
+        (episode.start.x_m, episode.start.y_m), spec.goal_object_id, success_radius_m=episode.success_radius_m
+    )
+    assert episode.geodesic_length_m == pytest.approx(expected, abs=1e-9)
+    assert episode.success_radius_m == GOAL_SUCCESS_RADIUS_M
+
+
+def test_a_larger_minimum_is_respected_and_an_impossible_one_raises() -> None:
+    spec, oracle = scene_and_oracle("living_room", 0)
+    far = [
+        sample_episode(spec, seed=s, min_geodesic_m=4.0, oracle=oracle).geodesic_length_m for s in range(5)
+    ]
+    assert min(far) >= 4.0
+    with pytest.raises(EpisodeSamplingError, match="living_room"):
+        sample_episode(spec, seed=0, min_geodesic_m=40.0, oracle=oracle)
+
+
+def test_a_goal_sealed_off_from_everywhere_raises() -> None:
+    # A 6 x 4 m room whose goal sits inside a closed pen: no start can reach it.
+    def wall(i: int, x: float, y: float, hx: float, hy: float) -> SceneObject:
+        return SceneObject(i, f"pen_{i}", "wall", "wall", "box", (x, y, 0.5), (hx, hy, 0.5), role="wall")
+
+    goal = SceneObject(0, "cup", "cup", "cup", "cylinder", (5.0, 2.0, 0.1), (0.05, 0.05, 0.1), role="goal")
+    pen = (goal, wall(1, 5.0, 1.0, 0.8, 0.05), wall(2, 5.0, 3.0, 0.8, 0.05), wall(3, 4.2, 2.0, 0.05, 1.0),
+           wall(4, 5.8, 2.0, 0.05, 1.0))  # fmt: skip
+    spec = SceneSpec("pen", "Pen", 0, (0.0, 0.0, 6.5, 4.0), pen, 0, "find the cup", "cup")
+    with pytest.raises(EpisodeSamplingError):
+        sample_episode(spec, seed=0, min_geodesic_m=1.0)
+
+
+def test_bad_arguments_are_rejected() -> None:
+    spec, oracle = scene_and_oracle("office", 0)
+    with pytest.raises(InvalidInputError, match="seed"):
+        sample_episode(spec, seed=-1, oracle=oracle)
+    with pytest.raises(InvalidInputError, match="min_geodesic_m"):
+        sample_episode(spec, seed=0, min_geodesic_m=math.nan, oracle=oracle)
+    with pytest.raises(InvalidInputError, match="max_tries"):
+        sample_episode(spec, seed=0, max_tries=0, oracle=oracle)
+    with pytest.raises(InvalidInputError, match="different scene"):
+        sample_episode(build_scene("office", seed=1), seed=0, oracle=oracle)

