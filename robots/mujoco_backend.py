@@ -148,6 +148,10 @@ def _wrap_angle(angle_rad: float) -> float:
     return (angle_rad + math.pi) % (2.0 * math.pi) - math.pi
 
 
+#: Penetration depth the kinematic base treats as touching (distance-solver round-off at contact).
+_CONTACT_TOLERANCE_M = 1e-4
+
+
 class MujocoRobot(Robot):
     """A Go1 with a head RGB-D camera in a MuJoCo scene.
 
@@ -354,21 +358,40 @@ class MujocoRobot(Robot):
             ]
         )
         before = self._min_clearance_m
-        self.data.qpos[:3] = proposed
-        mujoco.mj_kinematics(self.model, self.data)
-        distances = self._obstacle_distances()
-        after = min(distances.values(), default=math.inf)
-        # Refuse a move into penetration; a base that already penetrates (a bad start pose) may still move
-        # as long as it does not go deeper, so that it can get out.
-        blocked = after < 0.0 and after < before
-        if blocked:
+        # A move into penetration is refused, but the base slides: when the whole move is refused, its
+        # translation alone and then its rotation alone are tried, so a base touching an obstacle can
+        # still turn or back away from it (a legged robot side-steps; a refused move would otherwise
+        # leave it pinned). A base that already penetrates (a bad start pose) may move as long as it does
+        # not go deeper. The tolerance absorbs the distance solver's round-off at contact.
+        attempts = (
+            (proposed, velocity),
+            (np.array([proposed[0], proposed[1], yaw]), np.array([velocity[0], velocity[1], 0.0])),
+            (np.array([x, y, proposed[2]]), np.array([0.0, 0.0, velocity[2]])),
+        )
+        refused: dict[int, float] | None = None  # distances of the refused full move, for the event
+        accepted = False
+        for k, (pose, moved_velocity) in enumerate(attempts):
+            if k > 0 and not np.any(moved_velocity):
+                continue
+            self.data.qpos[:3] = pose
+            mujoco.mj_kinematics(self.model, self.data)
+            distances = self._obstacle_distances()
+            after = min(distances.values(), default=math.inf)
+            if not (after < -_CONTACT_TOLERANCE_M and after < before - 1e-9):
+                accepted = True
+                velocity = moved_velocity
+                break
+            if refused is None:
+                refused = distances
+        if not accepted:
             self.data.qpos[:3] = [x, y, yaw]
             mujoco.mj_kinematics(self.model, self.data)
+            distances = self._obstacle_distances()
             velocity = np.zeros(3)
         self._base_accel = (velocity - previous_velocity) / dt_s
         self._base_velocity = velocity
         self.data.time += dt_s
-        self._check_safety({oid: d for oid, d in distances.items() if d <= 0.0} if blocked else None)
+        self._check_safety({oid: d for oid, d in refused.items() if d <= 0.0} if refused is not None else None)
 
     def _dynamic_step(self, dt_s: float) -> None:
         self.data.ctrl[:] = self._joint_targets

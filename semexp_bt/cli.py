@@ -19,6 +19,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "tree": ("trees.cli", "validate (check) or print (show) a mission tree"),
     "scene": ("sims.cli", "list scenes or render one"),
     "bench": ("semexp_bt.bench_cli", "benchmarks: core, ..."),
+    "gait": ("semexp_bt.gait_cli", "train or inspect the RL gait"),
 }
 
 

@@ -35,7 +35,6 @@ import numpy as np
 
 from semexp_bt.config import DecisionConfig
 from semexp_bt.decision import (
-    REASON_ALL_ZERO,
     REASON_EMPTY,
     REASON_OK,
     REASON_TIE,
@@ -193,14 +192,15 @@ def select_subgoal(
         assert goal_distances_m is not None
         choice = oracle_choice(candidates, goal_distances_m=goal_distances_m)
     if choice is None:
-        reason = REASON_UNREACHABLE if scored.reason != REASON_ALL_ZERO else REASON_ALL_ZERO
-        return DecisionResult(subgoal=None, candidates=candidates, reason=reason, tie=False)
+        return DecisionResult(subgoal=None, candidates=candidates, reason=REASON_UNREACHABLE, tie=False)
     index, score = choice
     chosen = candidates[index]
     tie = _is_tie(kind, candidates, index, score, goal_distances_m, params)
     subgoal = Subgoal(node_id=chosen.node_id, position_m=chosen.position_m, label=chosen.label,
                       utility=float(score))  # fmt: skip
-    return DecisionResult(subgoal=subgoal, candidates=candidates, reason=REASON_TIE if tie else REASON_OK, tie=tie)
+    return DecisionResult(
+        subgoal=subgoal, candidates=candidates, reason=REASON_TIE if tie else REASON_OK, tie=tie
+    )
 
 
 def _is_tie(

@@ -230,8 +230,13 @@ class SweepSpec:
         keep_seeds = set(sorted(self.seeds)[: self.trajectories_per_cell])
         return [
             EpisodeTask(
-                key=EpisodeKey(scene=scene, seed=seed, strategy=strategy, fidelity=self.fidelity,
-                               config_hash=hashes[strategy]),  # fmt: skip
+                key=EpisodeKey(
+                    scene=scene,
+                    seed=seed,
+                    strategy=strategy,
+                    fidelity=self.fidelity,
+                    config_hash=hashes[strategy],
+                ),  # fmt: skip
                 mission_path=str(self.mission_path),
                 relevance=self.relevance,
                 config_overrides=dict(self.config_overrides),
@@ -357,7 +362,11 @@ def to_episode_record(row: Mapping[str, Any]) -> EpisodeRecord:
         distance = float(row["distance_to_goal_m"])
         dx, dy = float(centre[0]) - final_xy[0], float(centre[1]) - final_xy[1]
         norm = math.hypot(dx, dy)
-        goal_xy = final_xy if norm < 1e-12 else (final_xy[0] + dx / norm * distance, final_xy[1] + dy / norm * distance)
+        goal_xy = (
+            final_xy
+            if norm < 1e-12
+            else (final_xy[0] + dx / norm * distance, final_xy[1] + dy / norm * distance)
+        )
         steps = [
             {"selected_node_id": -1 if d["selected_node_id"] is None else int(d["selected_node_id"]),
              "oracle_node_id": int(d["oracle_node_id"])}
@@ -426,6 +435,9 @@ def prepare_worker() -> None:
     os.environ.setdefault("MUJOCO_GL", "egl")
     for var in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
         os.environ.setdefault(var, "1")
+    # Model-loading progress bars would interleave with the sweep's own progress lines.
+    for var, value in (("TQDM_DISABLE", "1"), ("HF_HUB_DISABLE_PROGRESS_BARS", "1"), ("TRANSFORMERS_VERBOSITY", "error")):
+        os.environ.setdefault(var, value)
     if "torch" in sys.modules:
         sys.modules["torch"].set_num_threads(1)
 
@@ -687,7 +699,9 @@ def run_sweep(
 def _write_meta(out_dir: Path, specs: Sequence[SweepSpec], *, workers: int, ray_address: str | None) -> None:
     """``sweep.json``: the last specs run here, the machine and the code revision (not part of keys)."""
     meta = {
-        "specs": [{k: (str(v) if isinstance(v, Path) else v) for k, v in asdict(one).items()} for one in specs],
+        "specs": [
+            {k: (str(v) if isinstance(v, Path) else v) for k, v in asdict(one).items()} for one in specs
+        ],
         "workers": workers,
         "ray_address": ray_address,
         "cpu_count": os.cpu_count(),
@@ -773,7 +787,9 @@ def _run_ray(todo: list[EpisodeTask], *, run_fn: RunFunction, address: str, work
     try:
         import ray  # type: ignore[import-not-found]
     except ImportError:
-        raise HarnessError("--ray-address needs Ray, which is not installed: pip install 'ray[default]'") from None
+        raise HarnessError(
+            "--ray-address needs Ray, which is not installed: pip install 'ray[default]'"
+        ) from None
     ray.init(address=address, ignore_reinit_error=True, log_to_driver=False)
     limit = workers or max(1, int(ray.cluster_resources().get("CPU", 1)))
     remote = ray.remote(num_cpus=1, max_retries=0)(execute_task)
@@ -842,13 +858,14 @@ class PaperProtocol:
     """
 
     trials_table_iii: int = 20
-    trials_evidence: int = 4
-    trials_decision: int = 4
-    trials_ablation: int = 4
-    trials_reference: int = 2
+    trials_evidence: int = 2
+    trials_decision: int = 2
+    trials_ablation: int = 2
+    trials_reference: int = 1
 
     def specs(self, **common: Any) -> list[SweepSpec]:
         """The protocol's grids; ``common`` goes to every :class:`SweepSpec` (fidelity, relevance, ...)."""
+
         def grid(scenes: tuple[str, ...], strategies: tuple[str, ...], trials: int) -> SweepSpec:
             return SweepSpec(scenes=scenes, seeds=tuple(range(trials)), strategies=strategies, **common)
 
@@ -870,6 +887,11 @@ class PaperProtocol:
         return len(keys)
 
 
+#: Simulated-time cap of the smoke protocol (s): it checks the pipeline end to end, not the results.
+SMOKE_MAX_SIM_S = 60.0
+
+
 def smoke_specs(**common: Any) -> list[SweepSpec]:
-    """The smoke grid of ``semexp-bt bench paper --smoke``."""
+    """The smoke grid of ``semexp-bt bench paper --smoke`` (simulated time capped at :data:`SMOKE_MAX_SIM_S`)."""
+    common.setdefault("max_sim_s", SMOKE_MAX_SIM_S)
     return [SweepSpec(scenes=SMOKE_SCENES, seeds=(0,), strategies=SMOKE_STRATEGIES, **common)]

@@ -480,10 +480,12 @@ class TopologicalMemory:
             maintenance = self.maintain()
         self._updates_since_maintenance += 1
 
-        close = self._within(p, max(cfg.delta_d, cfg.delta_r))
-        if close and close[0][0] <= cfg.delta_d:
+        close = self._within(p, cfg.delta_d)
+        if close:
             d_nn, target = close[0]
             return self._merge_observation(target, p, name, c_f, stamp, d_nn, maintenance)
+        # Most updates merge, so the wider edge query runs only when the gate did not merge.
+        close = self._within(p, cfg.delta_r) if cfg.delta_r > cfg.delta_d else []
 
         if c_f <= cfg.cf_gate:
             nn = close[0] if close else (self._k_nearest(p, 1) or [(math.inf, -1)])[0]
@@ -500,7 +502,7 @@ class TopologicalMemory:
 
         d_nn = close[0][0] if close else math.inf
         node_id = self._add_node(p, label=name, confidence=c_f, potential=c_f, stamp=stamp, is_master=False)
-        within_r = [n for d, n in close if d <= cfg.delta_r]
+        within_r = [n for _, n in close]
         if not within_r:
             knn = self._k_nearest(p, cfg.k_nearest + 1)
             within_r = [n for _, n in knn if n != node_id][: cfg.k_nearest]

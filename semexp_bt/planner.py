@@ -5,20 +5,24 @@ image to get ``[v_p, omega_p]``. ViPlanner's released weights need a semantic in
 available offline, so this module implements a depth-only, geometric planner behind the same narrow
 interface (:class:`LocalPlanner`) that a learned planner can fill later (see ``docs/planner.md``).
 
-:class:`DepthArcPlanner`, per call (12 Hz):
+:class:`DepthArcPlanner`, per call (12 Hz, about 1 ms at 320x240):
 
 1. back-projects a subsampled set of valid depth pixels into ``base_link``, keeps points inside the
    robot's height band (the floor and overhangs are dropped) and thins them on a 2D grid;
 2. merges them with a short memory of recent obstacle points, carried by odometry between calls and
    cleared where the current frame sees through them, so that an obstacle that has just left the
    ~70 degree field of view while turning is still avoided;
-3. samples constant-curvature arcs (curvatures x speeds over a short horizon), rejects every arc whose
-   swept disc comes closer than the safety margin to an obstacle point or whose centre line leaves the
-   camera's view beyond a small allowance, and scores the rest on goal progress, heading, clearance,
-   line of sight to the goal and smoothness;
-4. commands the best arc, slowed near obstacles and near the goal along the same curvature (so the
-   slowed motion is a prefix of the checked arc); rotates in place toward the goal when it is behind,
-   and toward the most open direction when no arc is safe; stops within the arrival radius.
+3. picks a guide point: the goal if the way to it is free, else the waypoint of the cheapest two-leg
+   path around the known points (a local detour; choosing where to go is the memory's job);
+4. rotates in place while the guide lies outside the camera's view (status ``goal_behind``, or
+   ``blocked`` when the guide is a detour because the direct way is obstructed);
+5. otherwise samples constant-curvature arcs (curvatures x speeds over a short horizon), rejects every
+   arc whose swept disc comes closer than the safety margin to an obstacle point or whose centre line
+   leaves the camera's view beyond a small allowance, scores the rest on progress and heading toward
+   the guide, clearance and smoothness, and commands the best one, slowed near obstacles and near the
+   goal along the same curvature (so the slowed motion is a prefix of the checked arc);
+6. rotates in place toward the most open direction when no arc is safe (``blocked``), and stops within
+   the arrival radius (``arrived``).
 
 Frames follow REP-103: ``base_link`` x forward, y left, z up; the camera frame is optical (x right,
 y down, z forward). Invalid depth (0, NaN, inf, outside the valid range) is free-but-unknown, never an
@@ -40,8 +44,10 @@ import numpy.typing as npt
 from semexp_bt.types import CameraIntrinsics, FloatArray, InvalidInputError, Pose2D, Twist, require_finite
 
 PlanStatus = Literal["tracking", "arrived", "blocked", "goal_behind"]
-"""What the planner is doing: following an arc to the goal, stopped at the goal, rotating in place
-because no arc is safe, or rotating in place toward a goal outside the view."""
+"""What the planner is doing: ``tracking`` an arc toward the goal (or a detour around an obstacle);
+``arrived`` within the arrival radius (zero twist); ``blocked``: rotating in place because no arc is
+safe, or toward a detour that lies outside the view because the direct way is obstructed;
+``goal_behind``: rotating in place toward a goal outside the view."""
 
 #: Numerical floor for divisions by small distances and curvatures.
 _EPS = 1e-9
@@ -158,8 +164,10 @@ class PlannerConfig:
     guide_check_range_m: float = field(default=3.0, metadata=_range(0.1, 50.0))
     """The second leg (waypoint to goal) is checked against known points this far."""
     guide_clearance_m: float = field(default=0.3, metadata=_range(0.0, 5.0))
-    """Clearance the guide path keeps from known points (more than the hard margin, so the robot
-    passes obstacles with room to spare and does not creep along them at the margin)."""
+    """Clearance the guide path prefers to keep from known points (more than the hard margin, so the
+    robot passes obstacles with room to spare and does not creep along them at the margin)."""
+    guide_tight_penalty_m: float = field(default=1.0, metadata=_range(0.0, 100.0))
+    """Added per leg of a guide path that passes closer than guide_clearance_m to a known point."""
     guide_blocked_penalty_m: float = field(default=4.0, metadata=_range(0.0, 100.0))
     """Added to the length of a guide path whose second leg is blocked."""
     detour_side_penalty_m: float = field(default=1.0, metadata=_range(0.0, 100.0))
@@ -271,7 +279,7 @@ class LocalPlanner(Protocol):
 # --------------------------------------------------------------------------------------------------
 
 
-def arc_points(*, curvature_1pm: FloatArray | float, arclength_m: FloatArray | float) -> FloatArray:
+def arc_points(*, curvature_1pm: npt.ArrayLike, arclength_m: npt.ArrayLike) -> FloatArray:
     """Positions on constant-curvature arcs that start at the origin heading along +x.
 
     Args:
@@ -291,7 +299,7 @@ def arc_points(*, curvature_1pm: FloatArray | float, arclength_m: FloatArray | f
     return np.stack(np.broadcast_arrays(x, y), axis=-1)
 
 
-def wrap_angle(angle_rad: FloatArray | float) -> FloatArray:
+def wrap_angle(angle_rad: npt.ArrayLike) -> FloatArray:
     """Wrap angles to [-pi, pi)."""
     return (np.asarray(angle_rad, dtype=float) + np.pi) % (2.0 * np.pi) - np.pi
 
@@ -422,7 +430,7 @@ def _build_arc_set(config: PlannerConfig) -> _ArcSet:
     speeds = np.linspace(config.min_speed_mps, config.max_speed_mps, config.n_speeds)
     longest = config.max_speed_mps * config.horizon_s
     n_samples = max(1, math.ceil(longest / config.arc_step_m - 1e-9))
-    sample_s = np.arange(1, n_samples + 1) * (longest / n_samples)
+    sample_s = np.arange(1, n_samples + 1, dtype=float) * (longest / n_samples)
     samples = arc_points(curvature_1pm=curvatures[:, None], arclength_m=sample_s[None, :])
     step = longest / n_samples
     # Round the arc's length up to a whole sample: the check then covers at least the whole arc.
@@ -458,7 +466,7 @@ class DepthArcPlanner:
         self._odom_pose = np.zeros(3)  # x, y, yaw of the base in the memory's frame
         self._memory_xyz = np.zeros((0, 3))  # in the memory's frame
         self._memory_stamp_s = np.zeros(0)
-        self._turning_to_goal = False
+        self._turn_in_place_sign = 0.0  # +1 / -1 while rotating in place toward the guide
         self._blocked_turn_sign = 0.0
         self._detour_side = 0.0
 
@@ -541,7 +549,7 @@ class DepthArcPlanner:
             )
 
         if goal_distance <= cfg.arrival_radius_m:
-            self._turning_to_goal = False
+            self._turn_in_place_sign = 0.0
             self._blocked_turn_sign = 0.0
             return finish(Twist.zero(), "arrived")
 
@@ -550,16 +558,24 @@ class DepthArcPlanner:
         counts["detour_rad"] = float(abs(wrap_angle(guide_bearing - goal_bearing)))
         counts["guide_x_m"], counts["guide_y_m"] = float(guide[0]), float(guide[1])
 
-        # Rotate in place while the way to the goal (the guide direction) lies outside the view.
+        # Rotate in place while the way to the goal (the guide direction) lies outside the view. The
+        # direction of the rotation is kept until the guide is in view: what the camera discovers while
+        # turning may move the guide to the other side, and reversing then would undo the turn.
         camera_yaw, half_fov = _camera_heading_and_half_fov(transform, intrinsics)
+        offset = float(wrap_angle(guide_bearing - camera_yaw))
         enter = half_fov + cfg.turn_in_place_margin_rad
-        threshold = min(cfg.turn_in_place_exit_rad, enter) if self._turning_to_goal else enter
-        self._turning_to_goal = abs(float(wrap_angle(guide_bearing - camera_yaw))) > threshold
-        if self._turning_to_goal:
+        threshold = min(cfg.turn_in_place_exit_rad, enter) if self._turn_in_place_sign else enter
+        if abs(offset) <= threshold:
+            self._turn_in_place_sign = 0.0
+        else:
+            self._turn_in_place_sign = self._turn_in_place_sign or math.copysign(1.0, offset)
             self._blocked_turn_sign = 0.0
+            rate = self._turn_rate_toward(offset)
+            if math.copysign(1.0, rate) != self._turn_in_place_sign:
+                rate = self._turn_in_place_sign * cfg.max_yaw_rate_radps
             # Toward the goal itself: it is behind. Toward a detour: the direct way is blocked.
             status: PlanStatus = "blocked" if self._detour_side else "goal_behind"
-            return finish(Twist(angular_z_radps=self._turn_rate_toward(guide_bearing)), status)
+            return finish(Twist(angular_z_radps=rate), status)
 
         choice = self._choose_arc(
             obstacles=obstacles,
@@ -798,7 +814,7 @@ class DepthArcPlanner:
         )
 
     def _free_range(
-        self, obstacles: FloatArray, directions_rad: FloatArray, max_range_m: float, clearance_m: float
+        self, obstacles: FloatArray, directions_rad: npt.ArrayLike, max_range_m: float, clearance_m: float
     ) -> FloatArray:
         """How far the robot disc can slide straight along each direction before it comes within
         ``clearance_m`` of an obstacle point, capped at ``max_range_m`` (exact for a swept disc)."""
@@ -815,69 +831,81 @@ class DepthArcPlanner:
         hit = np.where(touching, np.maximum(hit, 0.0), max_range_m)
         return np.minimum(hit.min(axis=1, initial=max_range_m), max_range_m)
 
-    def _segments_clear(self, *, starts: FloatArray, goal: FloatArray, obstacles: FloatArray) -> FloatArray:
-        """Whether the robot disc can slide from each start toward the goal (checked over
-        guide_check_range_m) keeping guide_clearance_m from every obstacle point."""
+    def _segment_gaps(self, *, starts: FloatArray, goal: FloatArray, obstacles: FloatArray) -> FloatArray:
+        """Clearance of the robot disc sliding from each start toward the goal (over at most
+        guide_check_range_m): the smallest point-to-segment distance minus the inflated radius."""
         cfg = self.config
         if obstacles.shape[0] == 0:
-            return np.ones(starts.shape[0], dtype=bool)
+            return np.full(starts.shape[0], np.inf)
         direction = goal - starts
         length = np.hypot(direction[:, 0], direction[:, 1])
         reach = np.minimum(length, cfg.guide_check_range_m)
         unit = direction / np.maximum(length, _EPS)[:, None]
-        rel = obstacles[None, :, :] - starts[:, None, :]  # (A, M, 2)
-        t = np.clip(np.einsum("amd,ad->am", rel, unit), 0.0, reach[:, None])
-        closest = rel - t[..., None] * unit[:, None, :]
-        gap = np.hypot(closest[..., 0], closest[..., 1]).min(axis=1)
-        return gap >= cfg.inflated_radius_m + cfg.guide_clearance_m
+        # Point-to-segment distances as (A x M) matrix products, without an (A, M, 2) temporary:
+        # with rel = p - a, t = clip(rel.u, 0, L) and |rel - t u|^2 = |rel|^2 - 2 t (rel.u) + t^2.
+        along = unit @ obstacles.T - np.einsum("ad,ad->a", unit, starts)[:, None]
+        rel_sq = (
+            np.einsum("md,md->m", obstacles, obstacles)[None, :]
+            - 2.0 * starts @ obstacles.T
+            + np.einsum("ad,ad->a", starts, starts)[:, None]
+        )
+        t = np.clip(along, 0.0, reach[:, None])
+        gap_sq = (rel_sq - 2.0 * t * along + t * t).min(axis=1)
+        return np.sqrt(np.maximum(gap_sq, 0.0)) - cfg.inflated_radius_m
 
     def _guide_point(self, *, obstacles: FloatArray, goal: FloatArray, goal_distance: float) -> FloatArray:
-        """The point the arcs are scored toward: the goal if the way to it is free, else the waypoint
-        of the shortest two-leg path robot -> waypoint -> goal whose first leg is free.
+        """The point the arcs are scored toward: the goal if the way to it is free with room to spare,
+        else the waypoint of the cheapest two-leg path robot -> waypoint -> goal.
 
-        Waypoints lie along the polar directions at a few distances up to the lookahead; the second
-        leg is checked against the known points too, and a blocked one costs a penalty. This sees
-        around a single obstacle (box, pillar, wall end) at the cost of one (D x M) and one
-        (D L x M) distance table; it is not a global planner (that is the topological memory's job).
+        Waypoints lie along the polar directions (and the goal's) at a few distances up to the
+        lookahead; the first leg must keep the hard margin. A path costs its length, plus
+        guide_tight_penalty_m per leg that passes closer than guide_clearance_m, plus
+        guide_blocked_penalty_m if the second leg breaks the margin, plus detour_side_penalty_m if it
+        passes on the other side than the previous detour. This sees around a single obstacle (a box,
+        a pillar, a wall end) with two small (D x M) and (D L x M) tables; it is not a global planner
+        (the topological memory above it chooses where to go).
         """
         cfg = self.config
         goal_bearing = math.atan2(goal[1], goal[0])
         direct = min(goal_distance, cfg.guide_lookahead_m)
-        if (
-            self._free_range(obstacles, np.array([goal_bearing]), direct, cfg.guide_clearance_m)[0]
-            >= direct - _EPS
+        roomy = self._free_range(obstacles, np.array([goal_bearing]), direct, cfg.guide_clearance_m)[0]
+        if roomy >= direct - _EPS and (
+            direct >= goal_distance - _EPS
+            or self._segment_gaps(
+                starts=goal[None, :] * (direct / goal_distance), goal=goal, obstacles=obstacles
+            )[0]
+            >= cfg.guide_clearance_m
         ):
-            if (
-                direct >= goal_distance - _EPS
-                or self._segments_clear(
-                    starts=goal[None, :] * (direct / goal_distance), goal=goal, obstacles=obstacles
-                )[0]
-            ):
-                self._detour_side = 0.0
-                return goal
-        centres = self._bin_centres_rad
-        free = self._free_range(obstacles, centres, cfg.guide_lookahead_m, cfg.guide_clearance_m)
+            self._detour_side = 0.0
+            return goal
+        directions = np.append(self._bin_centres_rad, goal_bearing)
+        free_hard = self._free_range(obstacles, directions, cfg.guide_lookahead_m, cfg.safety_margin_m)
+        free_soft = self._free_range(obstacles, directions, cfg.guide_lookahead_m, cfg.guide_clearance_m)
         legs = np.linspace(
             cfg.guide_lookahead_m / cfg.guide_leg_lengths, cfg.guide_lookahead_m, cfg.guide_leg_lengths
         )
-        usable = legs[None, :] <= free[:, None] + _EPS  # (D, L)
-        unit = np.stack([np.cos(centres), np.sin(centres)], axis=1)
+        usable = legs[None, :] <= free_hard[:, None] + _EPS  # (D, L)
+        unit = np.stack([np.cos(directions), np.sin(directions)], axis=1)
         waypoints = unit[:, None, :] * legs[None, :, None]  # (D, L, 2)
         cost = legs[None, :] + np.hypot(goal[0] - waypoints[..., 0], goal[1] - waypoints[..., 1])
-        clear = self._segments_clear(starts=waypoints.reshape(-1, 2), goal=goal, obstacles=obstacles)
-        cost = cost + np.where(clear.reshape(cost.shape), 0.0, cfg.guide_blocked_penalty_m)
-        side = np.sign(wrap_angle(centres - goal_bearing))
+        cost = cost + cfg.guide_tight_penalty_m * (legs[None, :] > free_soft[:, None] + _EPS)
+        gaps = np.full(usable.shape, -np.inf)
+        gaps[usable] = self._segment_gaps(starts=waypoints[usable], goal=goal, obstacles=obstacles)
+        cost = cost + np.where(gaps < cfg.safety_margin_m, cfg.guide_blocked_penalty_m, 0.0)
+        cost = cost + np.where(gaps < cfg.guide_clearance_m, cfg.guide_tight_penalty_m, 0.0)
+        side = np.sign(wrap_angle(directions - goal_bearing))
         if self._detour_side:
-            cost = cost + cfg.detour_side_penalty_m * (side != self._detour_side)[:, None]
+            cost = cost + cfg.detour_side_penalty_m * (side == -self._detour_side)[:, None]
         cost = np.where(usable, cost, np.inf)
         if not np.isfinite(cost).any():
             # Boxed in within the first leg: head for the freest direction, nearest the goal.
-            best_d = int(np.argmax(free - 1e-3 * np.abs(wrap_angle(centres - goal_bearing))))
-            reach = max(float(free[best_d]), cfg.robot_radius_m)
+            best_d = int(np.argmax(free_hard - 1e-3 * np.abs(wrap_angle(directions - goal_bearing))))
+            reach = max(float(free_hard[best_d]), cfg.robot_radius_m)
         else:
-            best_d, best_l = np.unravel_index(int(np.argmin(cost)), cost.shape)
+            flat_best = int(np.argmin(cost))
+            best_d, best_l = divmod(flat_best, cost.shape[1])
             reach = float(legs[best_l])
-        self._detour_side = float(side[best_d]) or 1.0
+        self._detour_side = float(side[best_d]) or self._detour_side or 1.0
         return reach * unit[best_d]
 
     def _most_open_turn_sign(self, obstacles: FloatArray, guide_bearing: float) -> float:

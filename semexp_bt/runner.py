@@ -135,8 +135,8 @@ def run_mission(options: RunOptions) -> dict[str, Any]:
             # PRIVILEGED, the oracle strategy only: the true goal, for an upper bound on decision quality.
             goal_oracle = GeodesicOracle(scene)
             services.privileged_goal_xy = (float(scene.goal.position_m[0]), float(scene.goal.position_m[1]))
-            services.privileged_goal_distance = lambda xy: goal_oracle.distance_to_object(
-                xy, scene.goal.object_id, success_radius_m=options.success_radius_m
+            services.privileged_goal_distance = _privileged_goal_distance(
+                goal_oracle, scene.goal.object_id, success_radius_m=options.success_radius_m
             )
         fresh_board(activity_stream=options.display or options.record_path is not None)
         board = py_trees.blackboard.Client(name="runner")
@@ -202,6 +202,33 @@ def run_mission(options: RunOptions) -> dict[str, Any]:
         return record
     finally:
         robot.close()
+
+
+#: A memory node lies on the object it describes (a blocked cell); the oracle measures from the nearest
+#: free cell within this radius (m), as the robot would stand next to the object.
+PRIVILEGED_SNAP_RADIUS_M = 1.0
+
+
+def _privileged_goal_distance(oracle: Any, goal_object_id: int, *, success_radius_m: float) -> Callable[[Any], float]:
+    """``(x, y) -> geodesic distance (m)`` into the goal's success region, from the nearest free cell
+    (within :data:`PRIVILEGED_SNAP_RADIUS_M`); ``inf`` when none is free or the goal is unreachable."""
+    grid = oracle.occupancy
+    rows, cols = np.nonzero(grid.free)
+    free_xy = grid.geometry.centre_of(rows, cols)
+
+    def distance(xy: Any) -> float:
+        point = np.asarray(xy, dtype=float)[:2]
+        if not grid.is_free(point):
+            if free_xy.size == 0:
+                return math.inf
+            gaps = np.hypot(*(free_xy - point).T)
+            nearest = int(np.argmin(gaps))
+            if gaps[nearest] > PRIVILEGED_SNAP_RADIUS_M:
+                return math.inf
+            point = free_xy[nearest]
+        return float(oracle.distance_to_object(point, goal_object_id, success_radius_m=success_radius_m))
+
+    return distance
 
 
 def _subsample_path(positions: list[np.ndarray], *, step_m: float) -> list[list[float]]:

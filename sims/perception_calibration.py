@@ -20,7 +20,8 @@ those modules exist, or from a small synthetic renderer (:func:`synthetic_view`)
 floor with correct occlusion, for development and tests. The calibration harness may read object
 positions to *choose viewpoints*; the emulator itself never does.
 
-CLI: ``python -m sims.perception_calibration --views 200 --seed 0 [--synthetic] [--scenes a,b]``.
+CLI: ``python -m sims.perception_calibration --views 300 --seed 0 [--synthetic] [--scenes a,b|all]``
+(``add_arguments``/``run`` follow the ``semexp-bt`` subcommand convention).
 """
 
 from __future__ import annotations
@@ -30,6 +31,7 @@ import math
 import sys
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -69,7 +71,9 @@ def _iou(a: tuple[float, float, float, float], b: tuple[float, float, float, flo
     return inter / (area(a) + area(b) - inter)
 
 
-def object_under_box(seg: np.ndarray, box: tuple[float, float, float, float], *, ignore: Sequence[int] = ()) -> int:
+def object_under_box(
+    seg: np.ndarray, box: tuple[float, float, float, float], *, ignore: Sequence[int] = ()
+) -> int:
     """The object a box outlines: among the objects with pixels inside ``box``, the one whose visible
     mask's bounding box overlaps ``box`` most (IoU); background and ``ignore`` ids (walls) left out.
 
@@ -98,7 +102,12 @@ def object_near_point(
     ids left out; background when there is none)."""
     h, w = seg.shape
     u, v = min(w - 1, max(0, int(round(point[0])))), min(h - 1, max(0, int(round(point[1]))))
-    v0, v1, u0, u1 = max(0, v - radius_px), min(h, v + radius_px + 1), max(0, u - radius_px), min(w, u + radius_px + 1)
+    v0, v1, u0, u1 = (
+        max(0, v - radius_px),
+        min(h, v + radius_px + 1),
+        max(0, u - radius_px),
+        min(w, u + radius_px + 1),
+    )
     patch = seg[v0:v1, u0:u1]
     rows, cols = np.nonzero(~np.isin(patch, [BACKGROUND_OBJECT_ID, *ignore]))
     if rows.size == 0:
@@ -137,14 +146,20 @@ class CalibrationReport:
     view_kind: str = "synthetic"
 
     def add(self, scene_name: str, source: str, *, reported: bool, correct: bool) -> None:
-        for tally in (self.tallies[source], self.per_scene.setdefault(scene_name, {s: SourceTally() for s in SOURCES})[source]):
+        for tally in (
+            self.tallies[source],
+            self.per_scene.setdefault(scene_name, {s: SourceTally() for s in SOURCES})[source],
+        ):
             tally.views += 1
             tally.reported += int(reported)
             tally.correct += int(correct)
 
     def table(self) -> str:
         """A Markdown table of SA proxy and coverage per source, with the paper's figure."""
-        lines = ["| source | views | SA proxy (%) | coverage (%) | paper SA (%) |", "| --- | --- | --- | --- | --- |"]
+        lines = [
+            "| source | views | SA proxy (%) | coverage (%) | paper SA (%) |",
+            "| --- | --- | --- | --- | --- |",
+        ]
         for s in SOURCES:
             t = self.tallies[s]
             lines.append(
@@ -170,18 +185,26 @@ def score_view(
     walls = [o.object_id for o in scene.objects if o.role == "wall"]
 
     def is_goal_category(oid: int) -> bool:
-        return oid != BACKGROUND_OBJECT_ID and normalise_label(scene.object_by_id(oid).category) == goal_category
+        return (
+            oid != BACKGROUND_OBJECT_ID and normalise_label(scene.object_by_id(oid).category) == goal_category
+        )
 
     for profile in ("detector", "detector_yolo_world"):
         out = emulate(observation, scene, target_label=target, rng=rng, noise=noise, detector_profile=profile)  # type: ignore[arg-type]
         if out.detections:
             top = max(out.detections, key=lambda d: d.confidence)
-            report.add(scene.name, profile, reported=True, correct=is_goal_category(object_under_box(seg, top.box_xyxy_px, ignore=walls)))
+            report.add(
+                scene.name,
+                profile,
+                reported=True,
+                correct=is_goal_category(object_under_box(seg, top.box_xyxy_px, ignore=walls)),
+            )
         else:
             report.add(scene.name, profile, reported=False, correct=False)
         if profile == "detector":
             aligned = [
-                p for p in out.scene_evidence.proposals
+                p
+                for p in out.scene_evidence.proposals
                 if p.kind == "object" and normalise_label(p.label) == normalise_label(target)
             ]
             if aligned:
@@ -208,9 +231,25 @@ SYNTHETIC_CAMERA_HEIGHT_M = 0.45
 def synthetic_scene() -> SceneSpec:
     """A small scene with a goal, two distractors, clutter and a back wall (positions unused)."""
 
-    def obj(oid: int, name: str, label: str, category: str, role: str, size: tuple[float, float, float], shape: str = "box") -> SceneObject:
-        return SceneObject(object_id=oid, name=name, label=label, category=category, shape=shape,  # type: ignore[arg-type]
-                           position_m=(0.0, 0.0, size[2]), size_m=size, role=role)  # type: ignore[arg-type]
+    def obj(
+        oid: int,
+        name: str,
+        label: str,
+        category: str,
+        role: str,
+        size: tuple[float, float, float],
+        shape: str = "box",
+    ) -> SceneObject:
+        return SceneObject(
+            object_id=oid,
+            name=name,
+            label=label,
+            category=category,
+            shape=shape,  # type: ignore[arg-type]
+            position_m=(0.0, 0.0, size[2]),
+            size_m=size,
+            role=role,  # type: ignore[arg-type]
+        )
 
     return SceneSpec(
         name="synthetic",
@@ -218,7 +257,15 @@ def synthetic_scene() -> SceneSpec:
         seed=0,
         bounds_m=(-5.0, -5.0, 5.0, 5.0),
         objects=(
-            obj(0, "extinguisher_0", "fire extinguisher", "extinguisher", "goal", (0.08, 0.08, 0.3), "cylinder"),
+            obj(
+                0,
+                "extinguisher_0",
+                "fire extinguisher",
+                "extinguisher",
+                "goal",
+                (0.08, 0.08, 0.3),
+                "cylinder",
+            ),
             obj(1, "trash_0", "red trash can", "trash can", "distractor", (0.18, 0.18, 0.35), "cylinder"),
             obj(2, "hydrant_0", "fire hydrant", "hydrant", "distractor", (0.15, 0.15, 0.4), "cylinder"),
             obj(3, "box_0", "cardboard box", "box", "clutter", (0.3, 0.3, 0.3)),
@@ -290,7 +337,12 @@ def synthetic_view(
         intrinsics=k,
         # Optical frame (x right, y down, z forward) to map (x forward, y left, z up), camera level.
         camera_to_world=np.array(
-            [[0.0, 0.0, 1.0, 0.0], [-1.0, 0.0, 0.0, 0.0], [0.0, -1.0, 0.0, camera_height_m], [0.0, 0.0, 0.0, 1.0]]
+            [
+                [0.0, 0.0, 1.0, 0.0],
+                [-1.0, 0.0, 0.0, 0.0],
+                [0.0, -1.0, 0.0, camera_height_m],
+                [0.0, 0.0, 0.0, 1.0],
+            ]
         ),
         base_pose=Pose2D(0.0, 0.0, 0.0),
         stamp_s=stamp_s,
@@ -369,7 +421,10 @@ def rendered_views(
                 bearing = float(rng.uniform(-math.pi, math.pi))
                 x = subject.position_m[0] + dist * math.cos(bearing)
                 y = subject.position_m[1] + dist * math.sin(bearing)
-                if not (x_min + ROBOT_CLEARANCE_M <= x <= x_max - ROBOT_CLEARANCE_M and y_min + ROBOT_CLEARANCE_M <= y <= y_max - ROBOT_CLEARANCE_M):
+                if not (
+                    x_min + ROBOT_CLEARANCE_M <= x <= x_max - ROBOT_CLEARANCE_M
+                    and y_min + ROBOT_CLEARANCE_M <= y <= y_max - ROBOT_CLEARANCE_M
+                ):
                     continue
                 if any(_footprint_distance_m(o, x, y) < ROBOT_CLEARANCE_M for o in obstacles):
                     continue
@@ -384,17 +439,13 @@ def rendered_views(
             robot.close()
 
 
-def _place_robot(cls: Callable[..., object], robot: object | None, scene: SceneSpec, pose: Pose2D, seed: int):  # type: ignore[no-untyped-def]
-    """Reuse the robot when the backend can teleport it, else build a new one at ``pose``."""
-    for method in ("reset", "teleport", "set_base_pose"):
-        if robot is not None and hasattr(robot, method):
-            try:
-                getattr(robot, method)(pose)
-                return robot
-            except TypeError:
-                break
+def _place_robot(cls: Callable[..., Any], robot: Any, scene: SceneSpec, pose: Pose2D, seed: int) -> Any:
+    """Teleport the robot when the backend can (``MujocoRobot.teleport``), else build one at ``pose``."""
+    if robot is not None and hasattr(robot, "teleport"):
+        robot.teleport(pose)
+        return robot
     if robot is not None:
-        robot.close()  # type: ignore[attr-defined]
+        robot.close()
     return cls(scene=scene, fidelity="kinematic", start_pose=pose, seed=seed)
 
 
@@ -424,17 +475,30 @@ def measure_single_source_accuracy(
     return report
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """CLI: print the single-source SA proxy table."""
-    parser = argparse.ArgumentParser(prog="python -m sims.perception_calibration", description=__doc__.splitlines()[0])
-    parser.add_argument("--views", type=int, default=200, help="views per scene (synthetic: in total)")
-    parser.add_argument("--seed", type=int, default=0)
+#: The paper's five simulation scenes (Table I), the default calibration set.
+PAPER_TABLE_I_SCENES: tuple[str, ...] = ("garden_sim", "sidewalk", "road", "warehouse_a", "warehouse_b")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Arguments of the calibration command (``semexp-bt`` subcommand convention)."""
+    parser.add_argument("--views", type=int, default=300, help="views per scene (synthetic: in total)")
+    parser.add_argument("--seed", type=int, default=0, help="seeds viewpoints and the emulator")
     parser.add_argument("--synthetic", action="store_true", help="use the synthetic renderer, not MuJoCo")
-    parser.add_argument("--scenes", default="", help="comma-separated catalogue scene names (default: all)")
-    parser.add_argument("--noise", default=None, help="noise-model YAML (default: sims/perception_noise.yaml)")
-    args = parser.parse_args(argv)
+    parser.add_argument(
+        "--scenes",
+        default=",".join(PAPER_TABLE_I_SCENES),
+        help="comma-separated catalogue scene names, or 'all' (default: the paper's Table I scenes)",
+    )
+    parser.add_argument(
+        "--noise", default=None, help="noise-model YAML (default: sims/perception_noise.yaml)"
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    """Measure and print the single-source SA proxy table; returns the exit status."""
     if args.views < 1:
-        parser.error("--views must be positive")
+        print("--views must be positive", file=sys.stderr)
+        return 2
     noise = load_noise_model(args.noise)
     if args.synthetic:
         views = random_synthetic_views(np.random.default_rng(args.seed), args.views)
@@ -442,7 +506,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     else:
         from sims import catalogue  # noqa: PLC0415
 
-        names = [n for n in args.scenes.split(",") if n] or catalogue.list_scenes()
+        names = catalogue.list_scenes() if args.scenes == "all" else [n for n in args.scenes.split(",") if n]
         views = rendered_views(names, views_per_scene=args.views, seed=args.seed)
         kind = "mujoco"
     report = measure_single_source_accuracy(views=views, seed=args.seed, noise=noise, view_kind=kind)
@@ -453,6 +517,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         cells += f" ({tallies['vlm'].views} views)"
         print(f"  {scene_name}: {cells}")
     return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``python -m sims.perception_calibration``."""
+    parser = argparse.ArgumentParser(
+        prog="python -m sims.perception_calibration", description=__doc__.splitlines()[0]
+    )
+    add_arguments(parser)
+    return run(parser.parse_args(argv))
 
 
 if __name__ == "__main__":

@@ -97,11 +97,11 @@ class VisibilityConfig:
 
     min_pixels: int = field(default=30, metadata=_range(1, 10_000_000))
     """Objects with fewer visible pixels are never reported."""
-    distance_ref_m: float = field(default=2.0, metadata=_range(0.0, 100.0))
+    distance_ref_m: float = field(default=2.5, metadata=_range(0.0, 100.0))
     """No distance penalty up to this depth (m)."""
-    distance_scale_m: float = field(default=5.0, metadata=_range(0.0, 1000.0, lo_open=True))
+    distance_scale_m: float = field(default=8.0, metadata=_range(0.0, 1000.0, lo_open=True))
     """Beyond ``distance_ref_m`` the distance factor decays as exp(-(d - ref) / scale)."""
-    area_half_px: float = field(default=120.0, metadata=_range(0.0, 1e9))
+    area_half_px: float = field(default=40.0, metadata=_range(0.0, 1e9))
     """Area factor n / (n + area_half_px) of n visible pixels: 0.5 at this many pixels."""
     occlusion_exponent: float = field(default=0.7, metadata=_range(0.0, 10.0))
     """Occlusion factor = visible_fraction ** occlusion_exponent."""
@@ -131,7 +131,7 @@ class DetectorProfile:
     """Mean confidence of a true detection at quality 1."""
     confidence_concentration: float = field(default=12.0, metadata=_range(0.0, 1e6, lo_open=True))
     """Beta concentration kappa = a + b: larger means confidences closer to their mean."""
-    confusion_rate: float = field(default=0.35, metadata=_range(0.0, 1.0))
+    confusion_rate: float = field(default=0.18, metadata=_range(0.0, 1.0))
     """Probability (times q ** quality_exponent) that a visible object marked close to the prompt is boxed
     with the prompt's label."""
     confusion_confidence_scale: float = field(default=0.8, metadata=_range(0.0, 1.0))
@@ -149,7 +149,7 @@ class DetectorProfile:
 class DirectionConfig:
     """Open-space 'direction' proposals of the VLM (columns where the camera sees far and clear)."""
 
-    open_depth_m: float = field(default=3.0, metadata=_range(0.0, 1000.0, lo_open=True))
+    open_depth_m: float = field(default=2.0, metadata=_range(0.0, 1000.0, lo_open=True))
     """A column is open when no obstacle pixel in the band is nearer than this (m)."""
     band_top_frac: float = field(default=0.2, metadata=_range(0.0, 1.0))
     """Top of the row band searched for obstacles, as a fraction of the image height."""
@@ -185,7 +185,11 @@ class SceneConfidenceConfig:
 class VlmProfile:
     """A scene-level VLM asked where the target is (Qwen2.5-VL-like)."""
 
-    visibility: VisibilityConfig = field(default_factory=VisibilityConfig)
+    visibility: VisibilityConfig = field(
+        default_factory=lambda: VisibilityConfig(
+            distance_ref_m=3.0, occlusion_exponent=0.5, truncation_weight=0.3, off_axis_weight=0.1
+        )
+    )
     latency: LatencyConfig = field(default_factory=lambda: LatencyConfig(mean_s=2.5, jitter_s=0.25))
     max_mention_probability: float = field(default=0.95, metadata=_range(0.0, 1.0))
     """Probability (times quality ** quality_exponent) that a visible matching or close object is proposed."""
@@ -194,13 +198,13 @@ class VlmProfile:
     mention_other_rate: float = field(default=0.15, metadata=_range(0.0, 1.0))
     """Probability (times q ** quality_exponent) that another visible non-wall object is proposed under its
     own label."""
-    confusion_rate: float = field(default=0.3, metadata=_range(0.0, 1.0))
+    confusion_rate: float = field(default=0.16, metadata=_range(0.0, 1.0))
     """Probability that a proposed object marked close to the target is labelled as the target."""
     swap_rate: float = field(default=0.05, metadata=_range(0.0, 1.0))
     """Probability that a proposed target object is labelled with one of its close labels instead."""
-    hallucination_rate: float = field(default=0.05, metadata=_range(0.0, 1.0))
+    hallucination_rate: float = field(default=0.03, metadata=_range(0.0, 1.0))
     """Probability per view of a target proposal on an in-view pixel that is not the target."""
-    point_jitter_frac: float = field(default=0.15, metadata=_range(0.0, 10.0))
+    point_jitter_frac: float = field(default=0.1, metadata=_range(0.0, 10.0))
     """Std of the point jitter as a fraction of the visible mask's bounding-box width/height."""
     emit_regions: bool = True
     """Attach a coarse region (jittered mask bounding box) to object proposals."""
@@ -367,7 +371,9 @@ def analyse_view(
         if oid == BACKGROUND_OBJECT_ID:
             continue
         if oid not in objects:
-            raise InvalidInputError(f"observation.segmentation holds id {oid}, unknown to scene '{scene.name}'")
+            raise InvalidInputError(
+                f"observation.segmentation holds id {oid}, unknown to scene '{scene.name}'"
+            )
         if count < min_pixels:
             continue
         rows, cols = np.nonzero(seg == oid)
@@ -425,9 +431,7 @@ class QualityFactors:
 
     @property
     def quality(self) -> float:
-        return (
-            self.distance * self.area * self.occlusion * self.truncation * self.off_axis * self.blur
-        )
+        return self.distance * self.area * self.occlusion * self.truncation * self.off_axis * self.blur
 
 
 def _blur_px(motion: Twist, fx_px: float, depth_m: float, exposure_s: float) -> float:
@@ -649,7 +653,9 @@ def _scene_confidence(
     cfg = profile.scene_confidence
     n_objects = sum(1 for oid in visible if objects[oid].role != "wall")
     clutter = min(1.0, n_objects / cfg.clutter_objects_ref)
-    blur = math.exp(-_blur_px(motion, fx_px, math.inf, profile.visibility.exposure_s) / profile.visibility.blur_scale_px)
+    blur = math.exp(
+        -_blur_px(motion, fx_px, math.inf, profile.visibility.exposure_s) / profile.visibility.blur_scale_px
+    )
     mean = cfg.max_mean - cfg.clutter_weight * clutter - cfg.blur_weight * (1.0 - blur)
     return _beta(rng, mean, cfg.concentration)
 
@@ -716,7 +722,15 @@ def _emulate_vlm(
             flat = int(candidates[int(rng.integers(candidates.size))])
             v, u = divmod(flat, width)
             salience = float(rng.uniform(0.0, 1.0)) + profile.order_noise * float(rng.gumbel())
-            items.append((salience, SceneProposal(point_px=(float(u), float(v)), label=prompt), "hallucination", None, 0.0))
+            items.append(
+                (
+                    salience,
+                    SceneProposal(point_px=(float(u), float(v)), label=prompt),
+                    "hallucination",
+                    None,
+                    0.0,
+                )
+            )
 
     # A VLM asked for the target answers with what it believes is the target first.
     items.sort(key=lambda it: (normalise_label(it[1].label) != target_norm, -it[0]))
@@ -733,7 +747,9 @@ def _emulate_vlm(
     proposals = tuple(it[1] for it in items) + tuple(directions)
     provenance: list[tuple[ReportKind, int | None, float]] = [(it[2], it[3], it[4]) for it in items]
     provenance += [("direction", None, 0.0)] * len(directions)
-    evidence = SceneEvidence(proposals=proposals, scene_confidence=scene_confidence, stamp_s=observation.stamp_s)
+    evidence = SceneEvidence(
+        proposals=proposals, scene_confidence=scene_confidence, stamp_s=observation.stamp_s
+    )
     return evidence, provenance
 
 
@@ -769,7 +785,9 @@ def emulate(
     require_finite("motion", [motion.linear_x_mps, motion.linear_y_mps, motion.angular_z_radps])
     noise = _default_noise() if noise is None else noise
     if detector_profile not in ("detector", "detector_yolo_world"):
-        raise InvalidInputError(f"detector_profile must be 'detector' or 'detector_yolo_world', got {detector_profile!r}")
+        raise InvalidInputError(
+            f"detector_profile must be 'detector' or 'detector_yolo_world', got {detector_profile!r}"
+        )
     det_profile: DetectorProfile = getattr(noise, detector_profile)
     objects = {obj.object_id: obj for obj in scene.objects}
     min_pixels = min(det_profile.visibility.min_pixels, noise.vlm.visibility.min_pixels)
@@ -778,11 +796,25 @@ def emulate(
     fx = observation.intrinsics.fx_px
 
     detections, det_prov = _emulate_detector(
-        visible, objects, prompt=target_label, pairs=pairs, profile=det_profile, motion=motion, fx_px=fx, rng=rng
+        visible,
+        objects,
+        prompt=target_label,
+        pairs=pairs,
+        profile=det_profile,
+        motion=motion,
+        fx_px=fx,
+        rng=rng,
     )
     evidence, vlm_prov = _emulate_vlm(
-        observation, scene, visible, objects, prompt=target_label, pairs=pairs, profile=noise.vlm,
-        motion=motion, rng=rng,
+        observation,
+        scene,
+        visible,
+        objects,
+        prompt=target_label,
+        pairs=pairs,
+        profile=noise.vlm,
+        motion=motion,
+        rng=rng,
     )
     vlm_latency = _draw_latency(rng, noise.vlm.latency)
     det_latency = _draw_latency(rng, det_profile.latency)

@@ -314,7 +314,7 @@ def test_driving_into_a_wall_stops_at_the_wall_and_records_one_collision() -> No
     front_m = 0.29  # the head housing's front face, in the trunk frame
     for _ in range(200):  # 4 s, far more than the 2 m to the wall
         robot.advance(0.02)
-        assert robot.base_pose().x_m + front_m <= 2.0 + 1e-9
+        assert robot.base_pose().x_m + front_m <= 2.0 + 1e-4  # contact tolerance of the kinematic base
     assert robot.base_pose().x_m + front_m == pytest.approx(2.0, abs=0.02)
     assert robot.base_twist().linear_x_mps < 0.1
     safety = robot.safety()

@@ -1,0 +1,293 @@
+"""The RL gait: trot prior IK, observation, policy inference (numpy vs torch), checkpoints, the env's
+reward terms, PPO's GAE, and the controller on the dynamic Go1."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+import torch
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from robots.gait_policy import (
+    ACTION_DIM,
+    CONFIG_FILE,
+    OBS_DIM,
+    GaitPolicy,
+    NumpyActor,
+    PolicyConfig,
+    TrotConfig,
+    TrotPrior,
+    actor_weights_from_torch,
+    build_observation,
+    build_torch_actor,
+    load_policy,
+    make_gait_controller,
+    projected_gravity,
+    save_policy,
+)
+from robots.go1 import load_go1_spec
+from robots.mujoco_backend import MujocoRobot
+from semexp_bt.scene import SceneSpec
+from semexp_bt.types import InvalidInputError, Pose2D, Twist
+from sims.gait_env import GaitEnv, GaitEnvConfig, NoiseConfig, RandomizationConfig, reward_terms
+from sims.gait_train import RunningNormalizer, compute_gae
+
+SPEC = load_go1_spec()
+
+
+def _leg_fk(hip: float, thigh: float, knee: float, abduction_offset_m: float) -> np.ndarray:
+    """Foot position relative to the hip joint, written from the MJCF's joint axes (x, y, y)."""
+    link = SPEC.thigh_length_m
+    x = -link * math.sin(thigh) - link * math.sin(thigh + knee)
+    z_plane = -link * math.cos(thigh) - link * math.cos(thigh + knee)
+    y_plane = abduction_offset_m
+    # Rotation about x by the abduction angle.
+    y = y_plane * math.cos(hip) - z_plane * math.sin(hip)
+    z = y_plane * math.sin(hip) + z_plane * math.cos(hip)
+    return np.array([x, y, z])
+
+
+def test_prior_zero_command_is_the_standing_pose() -> None:
+    prior = TrotPrior()
+    for phase in (0.0, 0.3, 0.77):
+        targets = prior.joint_targets(np.array([phase]), np.zeros((1, 3)))[0]
+        np.testing.assert_allclose(targets, SPEC.standing_pose_rad, atol=1e-3)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    dx=st.floats(-0.12, 0.12),
+    dy=st.floats(-0.06, 0.06),
+    dz=st.floats(0.0, 0.08),
+    leg=st.integers(0, 3),
+)
+def test_leg_ik_reaches_the_foot_target(dx: float, dy: float, dz: float, leg: int) -> None:
+    prior = TrotPrior()
+    feet = np.zeros((1, 4, 3))
+    feet[0, leg] = [dx, dy, dz]
+    joints = prior.leg_ik(feet)[0].reshape(4, 3)[leg]
+    offset = SPEC.thigh_offset_y_m * (1.0 if leg in (1, 3) else -1.0)
+    expected = np.array([dx, offset + dy, -prior.config.stand_height_m + dz])
+    np.testing.assert_allclose(
+        _leg_fk(joints[0], joints[1], joints[2], abduction_offset_m=offset), expected, atol=1e-6
+    )
+
+
+def test_prior_trots_diagonal_pairs_and_follows_the_command() -> None:
+    prior = TrotPrior(TrotConfig(frequency_hz=2.0, stride_gain=1.0))
+    command = np.array([[0.5, 0.0, 0.0]])
+    feet = prior.foot_positions(np.array([0.25]), command)[0]
+    # Phase 0.25: FR and RL are mid-swing (lifted to the apex), FL and RR mid-stance (on the ground).
+    assert feet[0, 2] == pytest.approx(prior.config.foot_lift_m)
+    assert feet[3, 2] == pytest.approx(prior.config.foot_lift_m)
+    assert feet[1, 2] == 0.0 and feet[2, 2] == 0.0
+    # Stance feet sweep backwards by v * stance time: at phase 0 (stance start for FL) x = +v T/4.
+    start = prior.foot_positions(np.array([0.0]), command)[0]
+    assert start[1, 0] == pytest.approx(0.5 * 0.25 / 2.0)
+    assert prior.gate(np.zeros((1, 3)))[0] == 0.0
+
+
+def test_projected_gravity() -> None:
+    np.testing.assert_allclose(projected_gravity(np.array([1.0, 0, 0, 0])), [0, 0, -1], atol=1e-12)
+    # Rolled 90 degrees about x (left side up... right side down): gravity points along body -y.
+    half = math.sqrt(0.5)
+    np.testing.assert_allclose(projected_gravity(np.array([half, half, 0, 0])), [0, -1, 0], atol=1e-12)
+    batch = projected_gravity(np.array([[1.0, 0, 0, 0], [half, 0, half, 0]]))
+    np.testing.assert_allclose(batch[1], [1, 0, 0], atol=1e-12)
+
+
+def test_observation_layout() -> None:
+    obs = build_observation(
+        command=np.array([[1.0, 0.0, 0.0]]),
+        gyro_radps=np.zeros((1, 3)),
+        gravity_body=np.array([[0.0, 0.0, -1.0]]),
+        joint_position_rel_rad=np.zeros((1, 12)),
+        joint_velocity_radps=np.zeros((1, 12)),
+        last_action=np.ones((1, 12)),
+        phase=np.array([0.25]),
+    )
+    assert obs.shape == (1, OBS_DIM)
+    assert obs[0, 0] == 2.0  # command scale
+    assert obs[0, 8] == -1.0
+    np.testing.assert_allclose(obs[0, -2:], [1.0, 0.0], atol=1e-12)
+
+
+def test_numpy_and_torch_actor_agree() -> None:
+    torch.manual_seed(0)
+    module = build_torch_actor(OBS_DIM, ACTION_DIM, (64, 64))
+    rng = np.random.default_rng(0)
+    mean, std = rng.normal(size=OBS_DIM), rng.uniform(0.5, 2.0, size=OBS_DIM)
+    actor = NumpyActor(actor_weights_from_torch(module), mean, std)
+    obs = rng.normal(size=(16, OBS_DIM))
+    with torch.no_grad():
+        normalised = np.clip((obs - mean) / std, -5.0, 5.0)
+        expected = module(torch.as_tensor(normalised, dtype=torch.float32)).numpy()
+    got = actor(obs)
+    assert got.shape == (16, ACTION_DIM)
+    np.testing.assert_allclose(got, np.clip(expected, -1, 1), atol=1e-5)
+    assert actor(obs[0]).shape == (ACTION_DIM,)
+
+
+def test_checkpoint_roundtrip_and_errors(tmp_path) -> None:
+    rng = np.random.default_rng(1)
+    actor = NumpyActor([(rng.normal(size=(OBS_DIM, 8)), rng.normal(size=8)), (rng.normal(size=(8, 12)), np.zeros(12))],
+                       np.zeros(OBS_DIM), np.ones(OBS_DIM))  # fmt: skip
+    save_policy(tmp_path, config=PolicyConfig(hidden_sizes=(8,)), actor=actor)
+    loaded = load_policy(tmp_path)
+    obs = rng.normal(size=(3, OBS_DIM))
+    np.testing.assert_allclose(loaded.actor(obs), actor(obs), atol=1e-5)  # float32 storage
+    raw = json.loads((tmp_path / CONFIG_FILE).read_text())
+    del raw["trot"]
+    (tmp_path / CONFIG_FILE).write_text(json.dumps(raw))
+    with pytest.raises(InvalidInputError, match="trot"):
+        load_policy(tmp_path)
+    with pytest.raises(FileNotFoundError, match="policy"):
+        load_policy(tmp_path / "missing")
+
+
+def test_shipped_checkpoint_loads() -> None:
+    policy = load_policy()
+    assert policy.actor.obs_dim == OBS_DIM
+    assert policy.actor(np.zeros(OBS_DIM)).shape == (ACTION_DIM,)
+    assert policy.config.info.get("env_steps", 0) > 0
+
+
+def test_reward_terms_on_hand_made_states() -> None:
+    n = 3
+    command = np.array([[0.5, 0.0, 0.0], [0.5, 0.0, 1.0], [0.0, 0.0, 0.0]])
+    lin = np.array([[0.5, 0.0, 0.1], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]])
+    ang = np.array([[0.0, 0.0, 0.0], [0.2, 0.0, 1.0], [0.0, 0.0, 0.0]])
+    contact = np.array([[1, 0, 0, 1], [1, 1, 1, 1], [1, 1, 1, 1]], dtype=float)
+    foot_vel = np.zeros((n, 4, 2))
+    foot_vel[0, 0] = [0.3, 0.4]  # in contact: slips 0.25 m^2/s^2
+    foot_vel[0, 1] = [1.0, 0.0]  # swinging: not a slip
+    first = np.zeros((n, 4))
+    first[0, 0] = first[2, 0] = 1.0
+    air = np.full((n, 4), 0.3)
+    q_rel = np.zeros((n, 12))
+    q_rel[2, 0] = 0.2
+    terms = reward_terms(
+        command=command, base_lin_vel_body=lin, base_ang_vel_body=ang,
+        gravity_body=np.array([[0.1, 0.0, -0.99], [0, 0, -1.0], [0, 0, -1.0]]),
+        torques_nm=np.array([[1.0] + [0.0] * 11, [0.0] * 12, [2.0] * 12]),
+        action=np.ones((n, 12)), last_action=np.zeros((n, 12)), foot_contact=contact,
+        foot_velocity_xy=foot_vel, first_contact=first, air_time_s=air, joint_position_rel_rad=q_rel,
+        tracking_sigma=0.25,
+    )  # fmt: skip
+    np.testing.assert_allclose(terms["tracking_lin_vel"], [1.0, math.exp(-1.0), 1.0])
+    np.testing.assert_allclose(terms["tracking_ang_vel"], [1.0, 1.0, 1.0])
+    np.testing.assert_allclose(terms["lin_vel_z"], [0.01, 0.0, 0.0])
+    np.testing.assert_allclose(terms["ang_vel_xy"], [0.0, 0.04, 0.0])
+    np.testing.assert_allclose(terms["orientation"], [0.01, 0.0, 0.0])
+    np.testing.assert_allclose(terms["torques"], [1.0, 0.0, 48.0])
+    np.testing.assert_allclose(terms["action_rate"], [12.0, 12.0, 12.0])
+    np.testing.assert_allclose(terms["feet_slip"], [0.25, 0.0, 0.0])
+    # Air time rewards a 0.3 s step by 0.1 only while moving; standing still penalises joint offsets.
+    np.testing.assert_allclose(terms["feet_air_time"], [0.1, 0.0, 0.0])
+    np.testing.assert_allclose(terms["stand_still"], [0.0, 0.0, 0.2])
+
+
+def test_gae_hand_worked() -> None:
+    # gamma 0.9, lambda 0.8; the episode ends after step 1.
+    # t=2: delta = 1 + 0.9*0.5 - 0.5 = 0.95 -> A = 0.95
+    # t=1: delta = 1 - 0.5 = 0.5 (no bootstrap) -> A = 0.5
+    # t=0: delta = 0.95 -> A = 0.95 + 0.9*0.8*0.5 = 1.31
+    advantages, returns = compute_gae(
+        rewards=np.ones((3, 1)), values=np.full((3, 1), 0.5), dones=np.array([[0.0], [1.0], [0.0]]),
+        last_values=np.array([0.5]), gamma=0.9, lam=0.8,
+    )  # fmt: skip
+    np.testing.assert_allclose(advantages[:, 0], [1.31, 0.5, 0.95])
+    np.testing.assert_allclose(returns[:, 0], [1.81, 1.0, 1.45])
+
+
+def test_running_normalizer_matches_numpy() -> None:
+    rng = np.random.default_rng(3)
+    data = rng.normal(2.0, 3.0, size=(300, 4))
+    norm = RunningNormalizer(4)
+    for chunk in np.split(data, 3):
+        norm.update(chunk)
+    np.testing.assert_allclose(norm.mean, data.mean(axis=0), atol=1e-4)
+    np.testing.assert_allclose(norm.var, data.var(axis=0), rtol=1e-3)
+
+
+def test_env_steps_and_detects_falls() -> None:
+    config = GaitEnvConfig(
+        num_envs=2, randomization=RandomizationConfig(enabled=False), noise=NoiseConfig(enabled=False)
+    )
+    env = GaitEnv(config, seed=0)
+    obs = env.reset()
+    assert obs.shape == (2, OBS_DIM)
+    obs, reward, done, info = env.step(np.zeros((2, ACTION_DIM)))
+    assert reward.shape == (2,) and not done.any() and np.isfinite(reward).all()
+    assert info["critic_obs"].shape[0] == 2
+    # Tip env 1 upside down: the next step ends its episode as a fall and resets it.
+    env.datas[1].qpos[3:7] = [0.0, 1.0, 0.0, 0.0]
+    env.datas[1].qpos[2] = 0.3
+    _, _, done, info = env.step(np.zeros((2, ACTION_DIM)))
+    assert info["terminated"].tolist() == [False, True]
+    assert env.episode_step[1] == 0
+    with pytest.raises(InvalidInputError, match="actions"):
+        env.step(np.zeros((3, ACTION_DIM)))
+
+
+def _flat_robot() -> MujocoRobot:
+    scene = SceneSpec(name="flat", title="Flat", seed=0, bounds_m=(-5.0, -5.0, 5.0, 5.0), objects=(),
+                      goal_object_id=0, instruction="", goal_category="")  # fmt: skip
+    return MujocoRobot(scene=scene, fidelity="dynamic", start_pose=Pose2D(0.0, 0.0, 0.0), seed=0)
+
+
+def _drive(robot: MujocoRobot, twist: Twist, seconds: float, checkpoint: str | None = None) -> None:
+    controller = make_gait_controller(checkpoint)
+    for _ in range(int(round(seconds / 0.02))):
+        controller(robot, twist)
+        robot.advance(0.02)
+
+
+def test_controller_stands_on_a_zero_command() -> None:
+    robot = _flat_robot()
+    try:
+        start = robot.base_pose()
+        _drive(robot, Twist.zero(), 3.0)
+        end = robot.base_pose()
+        assert not robot.safety().fallen
+        assert math.hypot(end.x_m - start.x_m, end.y_m - start.y_m) < 0.1
+        assert robot.data.qpos[2] > 0.2
+    finally:
+        robot.close()
+
+
+def test_controller_walks_forward() -> None:
+    robot = _flat_robot()
+    try:
+        _drive(robot, Twist(0.5, 0.0, 0.0), 5.0)
+        assert not robot.safety().fallen
+        assert robot.base_pose().x_m > 0.5
+    finally:
+        robot.close()
+
+
+def test_controller_rejects_a_nan_twist() -> None:
+    robot = _flat_robot()
+    try:
+        with pytest.raises(InvalidInputError, match="twist"):
+            make_gait_controller("reference")(robot, Twist(math.nan, 0.0, 0.0))
+    finally:
+        robot.close()
+
+
+def test_reference_gait_is_a_zero_residual() -> None:
+    reference = GaitPolicy.reference()
+    assert np.all(reference.actor(np.ones(OBS_DIM)) == 0.0)
+
+
+@pytest.mark.slow
+def test_bench_quick_runs() -> None:
+    from sims.gait_bench import format_table, run_gait_bench
+
+    result = run_gait_bench(seeds=1, quick=True)
+    assert set(result["gaits"]) == {"policy", "reference"}
+    assert "pushes recovered" in format_table(result)

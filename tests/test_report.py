@@ -1,0 +1,189 @@
+"""Reports: tables from hand-made rows match hand-computed numbers; plots and the paper's tables are written."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from semexp_bt.harness import EPISODES_FILE, STATUS_ERROR, STATUS_OK
+from semexp_bt.metrics import wilson_interval
+from semexp_bt.report import (
+    ALL_SCENES,
+    cell_summaries,
+    cell_text,
+    intervals_disjoint,
+    latency_table,
+    matched_rows,
+    metric_table,
+    summarize_rows,
+    write_paper_results,
+    write_report,
+)
+
+
+def row(scene: str, strategy: str, seed: int, *, declared: bool, distance_m: float, path_m: float,
+        geodesic_m: float, collision: bool = False, reached: str | None = "extinguisher",
+        steps: tuple[tuple[int | None, int | None], ...] = (), status: str = STATUS_OK,
+        timings: dict[str, Any] | None = None, sim_s: float = 10.0, ticks: int = 500) -> dict[str, Any]:  # fmt: skip
+    """A flattened episode row; the robot ends ``distance_m`` from the goal's footprint, on the x axis."""
+    return {
+        "key": f"{scene}/{seed}/{strategy}/kinematic/abc", "status": status, "scene": scene, "seed": seed,
+        "strategy": strategy, "fidelity": "kinematic", "relevance": "lexical",
+        "goal": {"position_m": [10.0, 0.0, 0.0], "category": "extinguisher"},
+        "final_pose": {"x_m": 10.0 - distance_m, "y_m": 0.0, "yaw_rad": 0.0}, "distance_to_goal_m": distance_m,
+        "success_declared": declared, "success_radius_m": 1.0, "path_length_m": path_m, "geodesic_length_m": geodesic_m,
+        "collision": collision, "reached_category": reached, "goal_category": "extinguisher",
+        "decisions": [{"selected_node_id": s, "oracle_node_id": o} for s, o in steps],
+        "timings": timings or {}, "tick_wall_ms": {"median": 0.1, "p99": 2.0}, "ticks": ticks, "sim_time_s": sim_s,
+        "harness_wall_s": 1.0,
+    }  # fmt: skip
+
+
+def office_ours() -> list[dict[str, Any]]:
+    """Four hand-worked episodes: SR 3/4, SPL (0.8 + 1 + 0.5 + 0) / 4, OASR 3/4, SA 2/4, GNSA 4/6."""
+    return [
+        row("office", "ours", 0, declared=True, distance_m=0.5, path_m=5.0, geodesic_m=4.0, steps=((2, 2), (1, 2))),
+        row("office", "ours", 1, declared=True, distance_m=0.2, path_m=4.0, geodesic_m=4.0, collision=True,
+            steps=((3, 3),)),
+        row("office", "ours", 2, declared=True, distance_m=0.9, path_m=6.0, geodesic_m=3.0, reached="chair",
+            steps=((1, 1), (2, 2))),
+        row("office", "ours", 3, declared=False, distance_m=3.0, path_m=10.0, geodesic_m=5.0, reached=None,
+            steps=((5, 6),)),
+    ]  # fmt: skip
+
+
+def test_cell_summary_matches_the_hand_computed_metrics() -> None:
+    summary = summarize_rows(office_ours())
+    assert summary is not None
+    assert summary["n_episodes"] == 4
+    assert summary["sr"] == pytest.approx(0.75)
+    assert summary["spl"] == pytest.approx((0.8 + 1.0 + 0.5 + 0.0) / 4)
+    assert summary["oasr"] == pytest.approx(0.75)
+    assert summary["sa"] == pytest.approx(0.5)
+    assert summary["gnsa"] == pytest.approx(4 / 6)
+    assert summary["decision_steps"] == 6
+    # Wilson 95% for 3/4, worked by hand: centre 0.6275, half-width 0.3269
+    assert summary["sr_ci95"] == pytest.approx([0.3006, 0.9544], abs=1e-4)
+    assert summary["sa_ci95"] == pytest.approx([0.1500, 0.8500], abs=1e-4)
+    lo, hi = summary["spl_ci95"]
+    assert 0.0 <= lo <= summary["spl"] <= hi <= 1.0
+
+
+def test_failed_rows_are_left_out_of_the_metrics() -> None:
+    rows = office_ours() + [row("office", "ours", 9, declared=True, distance_m=0.1, path_m=1, geodesic_m=1,
+                                status=STATUS_ERROR)]  # fmt: skip
+    summary = summarize_rows(rows)
+    assert summary is not None and summary["n_episodes"] == 4 and summary["sr"] == pytest.approx(0.75)
+    assert summarize_rows([rows[-1]]) is None
+
+
+def test_mixed_success_radii_are_refused() -> None:
+    rows = office_ours()
+    rows[0]["success_radius_m"] = 1.5
+    with pytest.raises(ValueError, match="success radii"):
+        summarize_rows(rows)
+
+
+def test_metric_table_cells_are_value_and_interval_in_percent() -> None:
+    summaries = cell_summaries(office_ours())
+    table = metric_table(summaries, "sr", scenes=["office"], strategies=["ours"])
+    lines = table.splitlines()
+    assert lines[0] == "| strategy | office | all | n |"
+    assert lines[2] == "| Ours | 75.0 [30, 95] | 75.0 [30, 95] | 4 |"
+    assert cell_text(summaries[("office", "ours")], "sa") == "50.0 [15, 85]"
+    assert cell_text(None, "sr") == "-"
+
+
+def test_metric_table_shows_the_papers_number_beside_ours() -> None:
+    summaries = cell_summaries(office_ours())
+    table = metric_table(summaries, "sr", scenes=["office"], strategies=["ours"], paper={"ours": (55.0,)})
+    assert "75.0 [30, 95] (paper 55.0)" in table
+
+
+def test_pooled_column_pools_the_scenes() -> None:
+    rows = office_ours() + [row("road", "ours", 0, declared=False, distance_m=5.0, path_m=3.0, geodesic_m=9.0)]
+    summaries = cell_summaries(rows)
+    assert summaries[(ALL_SCENES, "ours")]["n_episodes"] == 5
+    assert summaries[(ALL_SCENES, "ours")]["sr"] == pytest.approx(3 / 5)
+    assert summaries[("road", "ours")]["sr"] == 0.0
+
+
+def test_matched_rows_keep_only_pairs_every_strategy_finished() -> None:
+    rows = office_ours() + [
+        row("office", "vlm_only", 1, declared=False, distance_m=4.0, path_m=1.0, geodesic_m=1.0),
+        row("office", "vlm_only", 2, declared=False, distance_m=4.0, path_m=1.0, geodesic_m=1.0),
+        row("office", "vlm_only", 3, declared=False, distance_m=4.0, path_m=1.0, geodesic_m=1.0, status=STATUS_ERROR),
+    ]  # fmt: skip
+    matched = matched_rows(rows, strategies=["ours", "vlm_only"], scenes=["office"])
+    assert sorted((r["strategy"], r["seed"]) for r in matched) == [
+        ("ours", 1), ("ours", 2), ("vlm_only", 1), ("vlm_only", 2)
+    ]  # fmt: skip
+
+
+def test_latency_table_rates_on_the_sim_clock_and_medians_of_episodes() -> None:
+    rows = [
+        row("office", "ours", 0, declared=False, distance_m=3, path_m=1, geodesic_m=1, sim_s=10.0, ticks=500,
+            timings={"decision": {"count": 2, "median_ms": 0.2, "p95_ms": 0.3, "total_s": 0.0}}),
+        row("office", "ours", 1, declared=False, distance_m=3, path_m=1, geodesic_m=1, sim_s=30.0, ticks=1500,
+            timings={"decision": {"count": 4, "median_ms": 0.4, "p95_ms": 0.5, "total_s": 0.0}}),
+    ]  # fmt: skip
+    table = {r["stage"]: r for r in latency_table(rows)}
+    assert table["decision"]["rate_hz"] == pytest.approx(6 / 40)
+    assert table["decision"]["median_ms"] == pytest.approx(0.3)
+    assert table["decision"]["p95_ms"] == pytest.approx(0.4)
+    assert table["decision"]["calls_per_episode"] == pytest.approx(3.0)
+    assert table["tick"]["rate_hz"] == pytest.approx(50.0)
+
+
+def test_intervals_disjoint_only_when_strictly_above() -> None:
+    assert intervals_disjoint([0.7, 1.0], [0.0, 0.3])
+    assert not intervals_disjoint([0.2, 0.8], [0.0, 0.3])
+    assert not intervals_disjoint([0.0, 0.3], [0.7, 1.0])
+    assert not intervals_disjoint(None, [0.0, 0.1])
+
+
+def test_write_report_writes_tables_plots_and_failures(tmp_path: Path) -> None:
+    rows = office_ours() + [row("office", "vlm_only", 0, declared=False, distance_m=3, path_m=1, geodesic_m=1,
+                                status=STATUS_ERROR)]  # fmt: skip
+    rows[-1]["error"] = "Traceback ...\nRuntimeError: the robot fell"
+    (tmp_path / EPISODES_FILE).write_text("".join(json.dumps(r) + "\n" for r in rows))
+    path = write_report(tmp_path)
+    text = path.read_text()
+    assert "| Ours | 75.0 [30, 95] | 75.0 [30, 95] | 4 |" in text  # SR
+    assert "| Ours | 66.7 " in text  # GNSA 4/6
+    assert "`office/0/vlm_only/kinematic/abc`: error: RuntimeError: the robot fell" in text
+    for name in ("bars_sr.png", "bars_spl.png", "spl_distribution.png"):
+        assert (tmp_path / "plots" / name).stat().st_size > 1000
+        assert f"plots/{name}" in text
+
+
+def test_write_report_without_rows_is_a_clear_error(tmp_path: Path) -> None:
+    with pytest.raises(FileNotFoundError, match="bench missions"):
+        write_report(tmp_path)
+
+
+def test_paper_results_claim_a_gain_only_where_intervals_do_not_overlap(tmp_path: Path) -> None:
+    rows = []
+    for seed in range(10):
+        for scene in ("garden_sim", "road"):
+            rows.append(row(scene, "ours", seed, declared=True, distance_m=0.3, path_m=5, geodesic_m=4))
+            rows.append(row(scene, "ablation_baseline", seed, declared=False, distance_m=5, path_m=9, geodesic_m=4))
+            rows.append(row(scene, "ablation_arbitration", seed, declared=seed % 5 != 0, distance_m=0.3,
+                            path_m=5, geodesic_m=4))  # fmt: skip
+    path = write_paper_results(rows, tmp_path / "results.md", header={"machine": "test box"},
+                               figures_dir=tmp_path / "figures")  # fmt: skip
+    text = path.read_text()
+    assert "- **machine**: test box" in text
+    table_iv = text.split("## Table IV")[1].split("## Table V")[0]
+    assert "Matched episodes: 20 (scene, seed) pairs." in table_iv
+    assert "| Ours | yes | yes | 20 | 100.0 [84, 100] | 80.0 " in table_iv
+    assert "ours 100.0 vs ablation_baseline 0.0: ours is higher (95% intervals do not overlap)." in table_iv
+    assert "ours 100.0 vs ablation_arbitration 80.0: intervals overlap: no difference claimed." in table_iv
+    lo, _ = wilson_interval(20, 20)
+    assert f"[{100 * lo:.0f}, 100]" in table_iv
+    assert "| garden_sim | green bin | 10 | 100.0 [72, 100] | 100.0 [72, 100] | 80.0 " in text
+    assert "## How this differs from the paper" in text
+    assert (tmp_path / "figures" / "table_iii_sr.png").is_file()
