@@ -32,6 +32,17 @@ from semexp_bt.geometry import back_project, robust_depth
 from semexp_bt.perception import PerceptionJob
 
 
+def _in_view(point_m: tuple[float, float, float], observation) -> bool:
+    """Whether a world point projects inside the observation's image, in front of the camera."""
+    world_to_camera = np.linalg.inv(np.asarray(observation.camera_to_world, dtype=float))
+    x, y, z = world_to_camera[:3, :3] @ np.asarray(point_m, dtype=float) + world_to_camera[:3, 3]
+    if z <= 0.0:
+        return False
+    k = observation.intrinsics
+    u, v = k.fx_px * x / z + k.cx_px, k.fy_px * y / z + k.cy_px
+    return 0.0 <= u < k.width_px and 0.0 <= v < k.height_px
+
+
 class ConfirmTarget(SemExpBehaviour):
     READS = ("arbitration", "observation", "instruction", "target_label", "found_objects", "memory")
     WRITES = ("found_objects", "memory")
@@ -40,8 +51,12 @@ class ConfirmTarget(SemExpBehaviour):
             "float", doc="the target must lie this close to the robot, m", default=1.6, gt=0.0
         ),
         "min_score": ParamSpec(
-            "float", doc="least raw posterior score S(t*) of a confirming view (C_f is 1 for a lone candidate, "
-            "so an absolute level is needed too)", default=0.1, ge=0.0, le=1.0,
+            "float",
+            doc="least raw posterior score S(t*) of a confirming view (C_f is 1 for a lone candidate, "
+            "so an absolute level is needed too)",
+            default=0.1,
+            ge=0.0,
+            le=1.0,
         ),
         "min_fused_confidence": ParamSpec(
             "float", doc="least fused confidence C_f of a confirming view", default=0.5, ge=0.0, le=1.0
@@ -54,13 +69,21 @@ class ConfirmTarget(SemExpBehaviour):
         ),
         "align_threshold": ParamSpec(
             "float",
-            doc="relevance at which a label counts as the instructed object",
-            default=0.6,
+            doc="relevance at which a label counts as the instructed object (0.9: the instructed label or a synonym; "
+            "a partial match such as 'shelf' for 'bucket shelf' is a distractor, never a success)",
+            default=0.9,
             ge=0.0,
             le=1.0,
         ),
         "reject_potential_factor": ParamSpec(
             "float", doc="potential scale of an aligned node that failed", default=0.2, ge=0.0, le=1.0
+        ),
+        "reject_radius_m": ParamSpec(
+            "float",
+            doc="only aligned nodes this close to the robot and inside the camera's view are "
+            "lowered on a failed confirmation, m",
+            default=1.2,
+            gt=0.0,
         ),
     }
 
@@ -73,8 +96,9 @@ class ConfirmTarget(SemExpBehaviour):
         min_fused_confidence: float = 0.5,
         extra_views: int = 1,
         consistency_radius_m: float = 0.8,
-        align_threshold: float = 0.6,
+        align_threshold: float = 0.9,
         reject_potential_factor: float = 0.2,
+        reject_radius_m: float = 1.2,
         context: BuildContext,
         remap: Mapping[str, str] | None = None,
     ) -> None:
@@ -86,6 +110,7 @@ class ConfirmTarget(SemExpBehaviour):
         self.consistency_radius_m = consistency_radius_m
         self.align_threshold = align_threshold
         self.reject_potential_factor = reject_potential_factor
+        self.reject_radius_m = reject_radius_m
         self._first: tuple[str, np.ndarray] | None = None
         self._confirmations = 0
         self._job: PerceptionJob | None = None
@@ -128,12 +153,20 @@ class ConfirmTarget(SemExpBehaviour):
 
     def _reject(self, why: str) -> py_trees.common.Status:
         memory = self.read("memory")
+        observation = self.read("observation")
         pose = self.services.robot.base_pose()
+        # Only a node the robot stands next to and looked at is evidence against itself: a target node
+        # behind the robot, or seen from afar, was simply not in this view and keeps its potential.
         for node_id in memory.within_radius(
-            position_m=(pose.x_m, pose.y_m, 0.0), radius_m=self.confirm_radius_m
+            position_m=(pose.x_m, pose.y_m, 0.0), radius_m=self.reject_radius_m
         ):
             state = memory.node(node_id)
-            if not state.is_master and self._aligned(state.label):
+            if (
+                not state.is_master
+                and self._aligned(state.label)
+                and observation is not None
+                and _in_view(state.position_m, observation)
+            ):
                 memory.scale_potential(node_id=node_id, factor=self.reject_potential_factor)
         self.feedback_message = why
         if self._first is not None:

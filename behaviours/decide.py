@@ -15,12 +15,14 @@ Example:
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping, Sequence
 
 import py_trees
 
 from behaviours.base import SemExpBehaviour
 from semexp_bt.decision import DecisionResult, decide
 from semexp_bt.decision_baselines import BASELINE_DECISIONS, select_subgoal
+from semexp_bt.types import NodeState
 
 
 class Decide(SemExpBehaviour):
@@ -64,7 +66,9 @@ class Decide(SemExpBehaviour):
         self.feedback_message = f"node {sg.node_id} {sg.label!r} U={sg.utility:.3f}"
         return py_trees.common.Status.SUCCESS
 
-    def _choose(self, *, nodes: list, instruction: str, costs: dict[int, float]) -> DecisionResult:
+    def _choose(
+        self, *, nodes: Sequence[NodeState], instruction: str, costs: Mapping[int, float]
+    ) -> DecisionResult:
         """Eq. 8-10, or the strategy's baseline choice (``services.strategy["decision"]``).
 
         The Eq. 9 weightings (utility, bayesian, llm_relevance, vlfm) are configs of :func:`decide`; the

@@ -2,8 +2,11 @@
 
 Semantics: RUNNING while the base has moved at least ``min_progress_m`` (or turned ``min_turn_deg``)
 within the last ``window_s`` of backend time; FAILURE (with ``stuck`` in the feedback and the event
-log) otherwise, so that the execute branch fails over to recovery. It lives beside the planner in the
-execute branch, and restarts its window each time the branch starts.
+log) otherwise, so that the execute branch fails over to recovery. It also fails when the robot has
+not come ``min_approach_m`` closer to the ``subgoal`` within ``approach_window_s`` (a robot that
+dithers, turning back and forth in front of an obstacle it cannot pass, moves and turns but gets
+nowhere; without this it would spend the whole execute timeout there). It lives beside the planner
+in the execute branch, and restarts its windows each time the branch starts.
 
 Example:
     - type: StuckGuard
@@ -23,11 +26,24 @@ from behaviours.spec import BuildContext, ParamSpec
 
 
 class StuckGuard(SemExpBehaviour):
+    READS = ("subgoal",)
     PARAMS = {
         "window_s": ParamSpec("float", doc="progress is judged over this window, s", default=8.0, gt=0.0),
         "min_progress_m": ParamSpec("float", doc="least travel within the window, m", default=0.25, gt=0.0),
         "min_turn_deg": ParamSpec(
             "float", doc="or least turn within the window, degrees", default=60.0, gt=0.0
+        ),
+        "approach_window_s": ParamSpec(
+            "float",
+            doc="the subgoal must come min_approach_m closer within this window, s",
+            default=15.0,
+            gt=0.0,
+        ),
+        "min_approach_m": ParamSpec(
+            "float",
+            doc="least reduction of the distance to the subgoal within the approach window, m",
+            default=0.3,
+            gt=0.0,
         ),
     }
 
@@ -38,6 +54,8 @@ class StuckGuard(SemExpBehaviour):
         window_s: float = 8.0,
         min_progress_m: float = 0.25,
         min_turn_deg: float = 60.0,
+        approach_window_s: float = 15.0,
+        min_approach_m: float = 0.3,
         context: BuildContext,
         remap: Mapping[str, str] | None = None,
     ) -> None:
@@ -46,6 +64,9 @@ class StuckGuard(SemExpBehaviour):
         self.min_progress_m = min_progress_m
         self.min_turn_rad = math.radians(min_turn_deg)
         self._anchor = (0.0, 0.0, 0.0, 0.0)
+        self.approach_window_s = approach_window_s
+        self.min_approach_m = min_approach_m
+        self._approach: tuple[float, float] | None = None  # (stamp of the last approach, best distance)
 
     def _reset(self) -> None:
         pose = self.services.robot.base_pose()
@@ -53,8 +74,27 @@ class StuckGuard(SemExpBehaviour):
 
     def initialise(self) -> None:
         self._reset()
+        self._approach = None
+
+    def _no_approach(self) -> bool:
+        """Track the closest distance to the subgoal; True when it stalled for the approach window."""
+        subgoal = self.read("subgoal")
+        if subgoal is None:
+            return False
+        pose = self.services.robot.base_pose()
+        distance = math.hypot(subgoal.position_m[0] - pose.x_m, subgoal.position_m[1] - pose.y_m)
+        if self._approach is None or distance <= self._approach[1] - self.min_approach_m:
+            self._approach = (self.now_s(), distance)
+            return False
+        return self.now_s() - self._approach[0] > self.approach_window_s
 
     def update(self) -> py_trees.common.Status:
+        if self._no_approach():
+            self.feedback_message = (
+                f"no progress: not {self.min_approach_m:.2f} m closer in {self.approach_window_s:.0f} s"
+            )
+            self.services.log_event("no_progress", distance_m=round(self._approach[1], 3))
+            return py_trees.common.Status.FAILURE
         t0, x0, y0, yaw0 = self._anchor
         pose = self.services.robot.base_pose()
         moved = math.hypot(pose.x_m - x0, pose.y_m - y0)

@@ -26,7 +26,11 @@ import py_trees
 from behaviours.base import SemExpBehaviour
 from behaviours.spec import BuildContext, ParamSpec
 from semexp_bt.evidence import calibrate
+from semexp_bt.frontier import depth_frontiers
 from semexp_bt.geometry import back_project, robust_depth
+
+#: Label of a geometric frontier node (the relevance scorer sees it like a VLM's direction label).
+FRONTIER_LABEL = "unexplored area"
 
 
 class UpdateMemory(SemExpBehaviour):
@@ -40,16 +44,42 @@ class UpdateMemory(SemExpBehaviour):
             "float", doc="a subgoal within this distance counts as visited, m", default=1.0, gt=0.0
         ),
         "standoff_m": ParamSpec(
-            "float", doc="place nodes (directions, landmarks) stop this far in front of the seen surface, m",
-            default=0.6, ge=0.0,
+            "float",
+            doc="place nodes (directions, landmarks) stop this far in front of the seen surface, m",
+            default=0.6,
+            ge=0.0,
         ),
         "landmark_weight": ParamSpec(
-            "float", doc="confidence of a VLM-named landmark node relative to the calibrated scene confidence "
-            "(0: no landmark nodes)", default=0.8, ge=0.0, le=1.0,
+            "float",
+            doc="confidence of a VLM-named landmark node relative to the calibrated scene confidence "
+            "(0: no landmark nodes)",
+            default=0.8,
+            ge=0.0,
+            le=1.0,
         ),
         "offer_all_candidates": ParamSpec(
             "bool", doc="offer every candidate (not only t*) to the gated insert", default=True
         ),
+        "offer_frontiers": ParamSpec(
+            "bool",
+            doc="also offer the depth frame's open directions (geometric frontiers) as place nodes, so "
+            "the search never starves when the VLM names no direction",
+            default=True,
+        ),
+        "frontier_open_range_m": ParamSpec(
+            "float", doc="a frontier column has no obstacle nearer than this, m", default=1.5, gt=0.0
+        ),
+        "frontier_min_width_deg": ParamSpec(
+            "float", doc="narrowest open run of columns that makes a frontier, degrees", default=8.0, gt=0.0
+        ),
+        "frontier_confidence": ParamSpec(
+            "float",
+            doc="confidence of a geometric frontier node (above the memory's C_f gate)",
+            default=0.5,
+            ge=0.0,
+            le=1.0,
+        ),
+        "max_frontiers": ParamSpec("int", doc="at most this many frontiers per view", default=2, ge=0),
     }
 
     def __init__(
@@ -61,6 +91,11 @@ class UpdateMemory(SemExpBehaviour):
         offer_all_candidates: bool = True,
         standoff_m: float = 0.6,
         landmark_weight: float = 0.8,
+        offer_frontiers: bool = True,
+        frontier_open_range_m: float = 1.5,
+        frontier_min_width_deg: float = 8.0,
+        frontier_confidence: float = 0.5,
+        max_frontiers: int = 2,
         context: BuildContext,
         remap: Mapping[str, str] | None = None,
     ) -> None:
@@ -71,6 +106,11 @@ class UpdateMemory(SemExpBehaviour):
         self.standoff_m = standoff_m
         self.landmark_weight = landmark_weight
         self.min_place_depth_m = 0.5
+        self.offer_frontiers = offer_frontiers
+        self.frontier_open_range_m = frontier_open_range_m
+        self.frontier_min_width_deg = frontier_min_width_deg
+        self.frontier_confidence = frontier_confidence
+        self.max_frontiers = max_frontiers
 
     def _offers(self) -> list[tuple[tuple[float, float], str, float, bool]]:
         """(pixel, label, confidence, is_place) for t*, the other candidates and the scene's landmarks.
@@ -81,24 +121,47 @@ class UpdateMemory(SemExpBehaviour):
         """
         result = self.read("arbitration")
         target = self.read("target")
+        scene = self.read("scene_evidence")
+        tau = self.services.config.arbitration.tau
+        place_weight = 0.0 if scene is None else calibrate(scene.scene_confidence, tau) * self.landmark_weight
         offers: list[tuple[tuple[float, float], str, float, bool]] = []
         if target is not None and result is not None:
-            offers.append((target.pixel_px, target.label, target.fused_confidence, target.kind == "direction"))
+            offers.append(
+                (target.pixel_px, target.label, target.fused_confidence, target.kind == "direction")
+            )
             if self.offer_all_candidates:
                 for cand in result.candidates:
                     if cand.pixel_px == target.pixel_px and cand.label == target.label:
                         continue
-                    offers.append((cand.pixel_px, cand.label, cand.normalised_score, cand.kind == "direction"))
-        scene = self.read("scene_evidence")
+                    confidence = cand.normalised_score
+                    if cand.kind == "direction":
+                        # S(t)/sum S splits the mass among candidates, so with three directions in view
+                        # none would pass the insertion gate; a direction the VLM named is a place worth
+                        # as much as a landmark it named.
+                        confidence = max(confidence, place_weight)
+                    offers.append((cand.pixel_px, cand.label, confidence, cand.kind == "direction"))
         if self.landmark_weight > 0.0 and scene is not None:
             # The VLM also names context objects that are not candidates for the target ("shelving rack",
             # "desk"); kept as landmark nodes they give the decision semantic places to explore, with the
             # relevance scorer deciding how much each says about the instruction.
             candidate_pixels = {tuple(c.pixel_px) for c in (result.candidates if result is not None else ())}
-            weight = calibrate(scene.scene_confidence, self.services.config.arbitration.tau) * self.landmark_weight
+            weight = place_weight
             for proposal in scene.proposals:
                 if proposal.kind == "object" and tuple(proposal.point_px) not in candidate_pixels:
                     offers.append((proposal.point_px, proposal.label, weight, True))
+        observation = self.read("observation")
+        if self.offer_frontiers and observation is not None:
+            # Frontiers beside the VLM's directions: the gate of Eq. 6 merges one that lands on a node the
+            # VLM already gave, so the memory does not grow twice for one opening.
+            frontiers = depth_frontiers(
+                depth_m=observation.depth_m,
+                intrinsics=observation.intrinsics,
+                camera_to_world=observation.camera_to_world,
+                open_range_m=self.frontier_open_range_m,
+                min_width_deg=self.frontier_min_width_deg,
+            )
+            for frontier in frontiers[: self.max_frontiers]:
+                offers.append((frontier.pixel_px, FRONTIER_LABEL, self.frontier_confidence, True))
         return offers
 
     def update(self) -> py_trees.common.Status:
@@ -114,7 +177,9 @@ class UpdateMemory(SemExpBehaviour):
                     depth = robust_depth(observation.depth_m, pixel, patch)
                     if is_place:
                         seen = self.direction_range_m if depth is None else depth
-                        depth = max(self.min_place_depth_m, min(seen - self.standoff_m, self.direction_range_m))
+                        depth = max(
+                            self.min_place_depth_m, min(seen - self.standoff_m, self.direction_range_m)
+                        )
                     if depth is None or not math.isfinite(depth):
                         outcomes.append(f"{label}: no depth")
                         continue

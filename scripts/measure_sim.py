@@ -137,6 +137,33 @@ def physics_figures(scene: SceneSpec, fidelity: str, seconds: float, repeats: in
     return figures
 
 
+def catalogue_figures(seconds: float, frames: int) -> dict[str, dict[str, float]]:
+    """Per catalogue scene: idle real-time factor in both fidelities (robot at its episode start, seed 0)
+    and the time of one full ``observe()`` (RGB + depth + segmentation) there."""
+    from sims.catalogue import build_scene, list_scenes
+    from sims.episodes import sample_episode
+
+    out: dict[str, dict[str, float]] = {}
+    for name in list_scenes():
+        scene = build_scene(name, seed=0)
+        start = sample_episode(scene, seed=0).start
+        row: dict[str, float] = {"objects": float(len(scene.objects))}
+        for fidelity in ("kinematic", "dynamic"):
+            robot = MujocoRobot(scene=scene, fidelity=fidelity, start_pose=start, seed=0)  # type: ignore[arg-type]
+            t0 = time.perf_counter()
+            robot.advance(seconds)
+            row[f"{fidelity}_idle_rtf"] = seconds / (time.perf_counter() - t0)
+            if fidelity == "kinematic":
+                robot.observe()  # the renderer's first frame pays its set-up
+                t0 = time.perf_counter()
+                for _ in range(frames):
+                    robot.observe()
+                row["observe_ms"] = (time.perf_counter() - t0) / frames * 1e3
+            robot.close()
+        out[name] = row
+    return out
+
+
 def render_figures(
     scene: SceneSpec, camera: CameraConfig, frames: int, repeats: int
 ) -> dict[str, float | str]:
@@ -205,6 +232,12 @@ def markdown_table(result: dict) -> str:
         f"Load average (1 min) {machine['load_average_1m_at_start']:.1f} at the start, "
         f"{machine['load_average_1m_at_end']:.1f} at the end; renderer: {result['render']['default']['gl_renderer']}."
     )
+    if "catalogue" in result:
+        lines += ["", "| scene | objects | idle RTF kinematic | idle RTF dynamic | observe() ms |",
+                  "| --- | ---: | ---: | ---: | ---: |"]
+        for name, row in result["catalogue"].items():
+            lines.append(f"| {name} | {row['objects']:.0f} | {row['kinematic_idle_rtf']:.0f} | "
+                         f"{row['dynamic_idle_rtf']:.1f} | {row['observe_ms']:.1f} |")
     return "\n".join(lines)
 
 
@@ -217,6 +250,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument(
         "--markdown", type=Path, help="print the table of docs/simulation.md for this JSON file and exit"
+    )
+    parser.add_argument(
+        "--catalogue", action="store_true", help="also measure every catalogue scene (idle RTF, observe time)"
     )
     args = parser.parse_args(argv)
     if args.markdown:
@@ -244,6 +280,8 @@ def main(argv: list[str] | None = None) -> int:
             "native": render_figures(scene, CameraConfig(downscale=1), args.frames, args.repeats),
         },
     }
+    if args.catalogue:
+        result["catalogue"] = catalogue_figures(args.seconds, args.frames)
     result["machine"]["load_average_1m_at_end"] = os.getloadavg()[0]  # type: ignore[index]
     text = json.dumps(result, indent=2)
     print(text)

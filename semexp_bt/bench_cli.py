@@ -3,6 +3,7 @@
 Kinds:
 
 - ``core``: arbitration, memory update and decision latency (``semexp_bt.bench_core``).
+- ``tree``: per-tick wall time of the paper's mission tree alone (``semexp_bt.bench_tree``).
 - ``missions``: a grid of episodes (scenes x seeds x strategies), in parallel, resumable, with a report:
   ``semexp-bt bench missions --scenes office,road --seeds 0-9 --strategies ours,vlm_only --out DIR``.
 - ``paper``: the paper's protocol (Tables I-V) into ``DIR`` and ``docs/results.md``:
@@ -67,12 +68,17 @@ def _add_sweep_options(parser: argparse.ArgumentParser) -> None:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    sub = parser.add_subparsers(dest="kind", metavar="{core,gait,missions,paper,report}")
+    sub = parser.add_subparsers(dest="kind", metavar="{core,tree,gait,missions,paper,report}")
     sub.required = True
     core = sub.add_parser("core", help="latency of arbitration, memory update and decision")
     core.add_argument("--json", type=Path, default=None, help="write the figures here as JSON")
     core.add_argument("--seed", type=int, default=0)
     core.add_argument("--quick", action="store_true", help="fewer repeats, no 100k-node row (smoke test)")
+
+    tree = sub.add_parser("tree", help="per-tick wall time of the mission tree alone (no physics, no rendering)")
+    tree.add_argument("--json", type=Path, default=None, help="write the figures here as JSON")
+    tree.add_argument("--ticks", type=int, default=20_000)
+    tree.add_argument("--seed", type=int, default=0)
 
     gait = sub.add_parser("gait", help="RL gait vs reference trot: tracking, falls, pushes, CoT, inference")
     gait.add_argument("--json", type=Path, default=None, help="write the figures here as JSON")
@@ -142,6 +148,16 @@ def run(args: argparse.Namespace) -> int:
         if args.json is not None:
             write_json(result, args.json)
         return 0 if all(result["floors_met"].values()) else 1
+    if args.kind == "tree":
+        from semexp_bt.bench_core import write_json as write_tree_json
+        from semexp_bt.bench_tree import format_table as tree_table
+        from semexp_bt.bench_tree import run_tree_bench
+
+        tree_result = run_tree_bench(ticks=args.ticks, seed=args.seed)
+        print(tree_table(tree_result))
+        if args.json is not None:
+            write_tree_json(tree_result, args.json)
+        return 0 if all(tree_result["floors_met"].values()) else 1
     if args.kind == "gait":
         from sims.gait_bench import format_table as gait_table
         from sims.gait_bench import run_gait_bench

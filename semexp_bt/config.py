@@ -45,6 +45,9 @@ class ArbitrationConfig:
     """Numerical-stability constant of Eq. 2."""
     scene_region_half_size_px: float = field(default=40.0, metadata=_range(1.0, 1000.0))
     """Half side of the square scene region built around a VLM point that comes without a box."""
+    direction_prior: float = field(default=0.25, metadata=_range(0.0, 1.0))
+    """P(t) of an unexplored-direction candidate in Eq. 2 (object candidates have P = 1): a direction
+    is where to look, not the target, and should win only when no object evidence is worth more."""
     cross_source_consistency: bool = True
     """When both sources answered for a view, an object candidate one of them did not corroborate is
     scored as spatially inconsistent (IoU = unsupported_iou) instead of dropping the term; see

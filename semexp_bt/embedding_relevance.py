@@ -19,6 +19,7 @@ when it loads, as every process that steps the simulator must.
 
 from __future__ import annotations
 
+import functools
 import os
 import threading
 import time
@@ -132,6 +133,13 @@ class EmbeddingRelevance:
         return cosine_to_relevance(cosines, cosine_floor=self.cosine_floor)
 
 
+@functools.lru_cache(maxsize=1)
+def shared_embedding_relevance() -> EmbeddingRelevance:
+    """One embedding model per process: loading MiniLM costs seconds, and missions run one after another
+    (a sweep worker runs many) share it. It holds no mission state (each mission gets its own cache)."""
+    return EmbeddingRelevance()
+
+
 def make_relevance_scorer(name: RelevanceName = "embedding") -> CachedRelevance:
     """The relevance scorer named in a mission or config, wrapped in :class:`CachedRelevance`.
 
@@ -143,7 +151,7 @@ def make_relevance_scorer(name: RelevanceName = "embedding") -> CachedRelevance:
     """
     scorer: RelevanceScorer
     if name == "embedding":
-        scorer = EmbeddingRelevance()
+        scorer = shared_embedding_relevance()
     elif name == "lexical":
         scorer = LexicalRelevance()
     else:

@@ -27,6 +27,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--num-envs", type=int, default=32, help="parallel environments")
+    parser.add_argument(
+        "--best", action="store_true", help="export: the best-scoring checkpoint (policy_best/), not the last"
+    )
     parser.add_argument("--to", type=Path, default=None, help="export: checkpoint directory to write")
     parser.add_argument(
         "--checkpoint", type=Path, default=None, help="show: checkpoint directory (shipped one)"
@@ -57,7 +60,7 @@ def run(args: argparse.Namespace) -> int:
             raise SystemExit("semexp-bt gait export: --out DIR and --to DIR are required")
         from robots.gait_policy import CONFIG_FILE, WEIGHTS_FILE, load_policy
 
-        source = args.out / "policy"
+        source = args.out / ("policy_best" if args.best else "policy")
         load_policy(source)  # validates before anything is overwritten
         args.to.mkdir(parents=True, exist_ok=True)
         for name in (WEIGHTS_FILE, CONFIG_FILE):

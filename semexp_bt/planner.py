@@ -122,6 +122,15 @@ class PlannerConfig:
     # --- goal handling ------------------------------------------------------------------------------
     arrival_radius_m: float = field(default=0.5, metadata=_range(0.0, 10.0))
     """Within this distance of the goal the planner stops and reports ``arrived``."""
+    standoff_arrival_radius_m: float = field(default=1.0, metadata=_range(0.0, 10.0))
+    """A goal on or against an obstacle (a memory node back-projected onto an object's surface, a place
+    next to a wall) cannot be reached within ``arrival_radius_m`` by a disc that keeps the safety margin.
+    Within this distance of such a goal, when the robot cannot slide more than
+    ``standoff_slide_tolerance_m`` further toward it, it stands at the nearest safe standoff: ``arrived``.
+    0 disables the rule. Keep it at or below the success radius r_s (1.0 m) so a standoff next to the
+    goal object still counts as reaching it."""
+    standoff_slide_tolerance_m: float = field(default=0.15, metadata=_range(0.0, 2.0))
+    """How much free straight-line travel toward the goal still counts as 'cannot get closer'."""
     turn_in_place_margin_rad: float = field(default=0.1, metadata=_range(0.0, 2.0 * math.pi))
     """Rotate in place when the way to the goal lies more than this outside the camera's horizontal
     half field of view (a large value disables rotating in place for goals to the side) ..."""
@@ -553,6 +562,13 @@ class DepthArcPlanner:
             self._blocked_turn_sign = 0.0
             return finish(Twist.zero(), "arrived")
 
+        if goal_distance <= cfg.standoff_arrival_radius_m and self._at_standoff(
+            obstacles, goal, goal_distance
+        ):
+            self._turn_in_place_sign = 0.0
+            self._blocked_turn_sign = 0.0
+            return finish(Twist.zero(), "arrived")
+
         guide = self._guide_point(obstacles=obstacles, goal=goal, goal_distance=goal_distance)
         guide_bearing = float(math.atan2(guide[1], guide[0]))
         counts["detour_rad"] = float(abs(wrap_angle(guide_bearing - goal_bearing)))
@@ -604,6 +620,24 @@ class DepthArcPlanner:
         )
 
     # ---------------------------------------------------------------------------------------------
+    def _at_standoff(self, obstacles: FloatArray, goal: FloatArray, goal_distance: float) -> bool:
+        """Whether the robot stands as close to an obstructed goal as the safety margin allows: the goal
+        lies within the inflated disc plus margin of a known obstacle point (so no safe pose is closer
+        to it), and the disc cannot slide more than the tolerance straight toward it."""
+        cfg = self.config
+        if obstacles.shape[0] == 0:
+            return False
+        reach = cfg.inflated_radius_m + cfg.safety_margin_m
+        goal_gap = float(_pairwise_min_distance(goal[None, :], obstacles)[0])
+        if goal_gap > reach:
+            return False
+        slide = float(
+            self._free_range(
+                obstacles, np.array([math.atan2(goal[1], goal[0])]), goal_distance, cfg.safety_margin_m
+            )[0]
+        )
+        return slide <= cfg.standoff_slide_tolerance_m
+
     def _turn_rate_toward(self, bearing_rad: float) -> float:
         cfg = self.config
         rate = min(

@@ -481,7 +481,9 @@ def plot_trajectory(payload: Mapping[str, Any], *, path: Path) -> Path:
         conf = np.array([n["confidence"] for n in nodes], dtype=float)
         points = ax.scatter(xy[:, 0], xy[:, 1], c=conf, cmap="plasma", vmin=0, vmax=1, s=28, edgecolors="k",
                             linewidths=0.4, zorder=5)  # fmt: skip
-        fig.colorbar(points, ax=ax, orientation="horizontal", fraction=0.04, pad=0.12, label="node confidence C_f")
+        fig.colorbar(
+            points, ax=ax, orientation="horizontal", fraction=0.04, pad=0.12, label="node confidence C_f"
+        )
         for n in nodes:
             if n.get("is_master"):
                 ax.scatter([n["position"][0]], [n["position"][1]], marker="*", s=140, c="gold", edgecolors="k",

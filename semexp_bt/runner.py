@@ -22,14 +22,12 @@ from typing import Any
 import numpy as np
 import py_trees
 
-from behaviours.services import SERVICES_KEY, MissionServices
-from behaviours.spec import BuildContext
-from blackboard.schema import fresh_board
+from behaviours.services import MissionServices
 from semexp_bt.config import load_config
+from semexp_bt.executive import build_tree, prepare_board
 from semexp_bt.memory import TopologicalMemory
 from semexp_bt.metrics import DEFAULT_CLEARANCE_M, DEFAULT_SUCCESS_RADIUS_M
 from semexp_bt.recorder import TickRecorder
-from semexp_bt.relevance import instruction_target
 from semexp_bt.strategies import Strategy, resolve_strategy
 
 #: One tree tick per 20 ms of backend time: the gait's 50 Hz.
@@ -97,7 +95,7 @@ def run_mission(options: RunOptions) -> dict[str, Any]:
     from sims.catalogue import build_scene
     from sims.episodes import sample_episode
     from sims.geodesic import GeodesicOracle
-    from trees.loader import MissionLoadError, analyse_mission, load_mission
+    from trees.loader import MissionLoadError, analyse_mission
     from trees.registry import default_registry
 
     wall_start = time.perf_counter()
@@ -138,24 +136,11 @@ def run_mission(options: RunOptions) -> dict[str, Any]:
             services.privileged_goal_distance = _privileged_goal_distance(
                 goal_oracle, scene.goal.object_id, success_radius_m=options.success_radius_m
             )
-        fresh_board(activity_stream=options.display or options.record_path is not None)
-        board = py_trees.blackboard.Client(name="runner")
-        for key in ("instruction", "target_label", "instructions_left", "start_pose", "memory", "mission_outcome",
-                    "found_objects", "subgoal"):
-            board.register_key(key=key, access=py_trees.common.Access.WRITE, remap_to="/" + key)
-        board.instruction = instructions[0]
-        board.target_label = instruction_target(instructions[0])
-        board.instructions_left = instructions[1:]
-        board.start_pose = episode.start
-        board.memory = TopologicalMemory(config.memory)
-        board.mission_outcome = "running"
-        board.found_objects = []
-        board.subgoal = None
-
-        context = BuildContext(clock=robot.now_s, robot=robot, config=config, services={SERVICES_KEY: services})
-        mission = load_mission(options.mission_path, registry=registry, context=context)
-        services.config = mission.config
-        tree = py_trees.trees.BehaviourTree(root=mission.root)
+        board = prepare_board(
+            instructions=instructions, start_pose=episode.start, memory=TopologicalMemory(config.memory),
+            activity_stream=options.display or options.record_path is not None,
+        )
+        tree = build_tree(mission_path=options.mission_path, services=services, registry=registry)
         recorder = TickRecorder(
             tree=tree, path=options.record_path, display=options.display, stream=options.display_stream,
             memory_getter=lambda: board.memory, subgoal_getter=lambda: board.subgoal,
@@ -209,7 +194,9 @@ def run_mission(options: RunOptions) -> dict[str, Any]:
 PRIVILEGED_SNAP_RADIUS_M = 1.0
 
 
-def _privileged_goal_distance(oracle: Any, goal_object_id: int, *, success_radius_m: float) -> Callable[[Any], float]:
+def _privileged_goal_distance(
+    oracle: Any, goal_object_id: int, *, success_radius_m: float
+) -> Callable[[Any], float]:
     """``(x, y) -> geodesic distance (m)`` into the goal's success region, from the nearest free cell
     (within :data:`PRIVILEGED_SNAP_RADIUS_M`); ``inf`` when none is free or the goal is unreachable."""
     grid = oracle.occupancy

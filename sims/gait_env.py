@@ -67,9 +67,15 @@ class RewardScales:
     feet_slip: float = -0.1
     feet_air_time: float = 0.2
     stand_still: float = -0.5
+    #: Without these two the policy learns to crouch on saturated residuals (low and stable, but the camera
+    #: drops 7 cm and the trunk nears the fall height): keep the trunk at the trot height, residuals small.
+    base_height: float = -80.0
+    action_magnitude: float = -0.02
     termination: float = -50.0
     #: Width of the exponential tracking kernels ((m/s)^2 and (rad/s)^2).
     tracking_sigma: float = 0.25
+    #: Trunk height (m) the base-height term holds (the standing sag is 0.254 m, a trot rides slightly lower).
+    target_height_m: float = 0.25
 
 
 @dataclass(frozen=True)
@@ -134,7 +140,9 @@ def reward_terms(
     first_contact: FloatArray,
     air_time_s: FloatArray,
     joint_position_rel_rad: FloatArray,
+    base_height_m: FloatArray,
     tracking_sigma: float,
+    target_height_m: float,
 ) -> dict[str, FloatArray]:
     """Unweighted reward terms ``(N,)`` from batched state (body frame; feet ``(N, 4)``/``(N, 4, 2)``).
 
@@ -155,6 +163,8 @@ def reward_terms(
         "feet_slip": np.sum(foot_contact * np.sum(foot_velocity_xy**2, axis=2), axis=1),
         "feet_air_time": np.sum((air_time_s - 0.2) * first_contact, axis=1) * moving,
         "stand_still": np.sum(np.abs(joint_position_rel_rad), axis=1) * (1.0 - moving),
+        "base_height": (base_height_m - target_height_m) ** 2,
+        "action_magnitude": np.sum(action**2, axis=1),
     }
 
 
@@ -434,7 +444,9 @@ class GaitEnv:
             first_contact=first_contact.astype(float),
             air_time_s=self.air_time,
             joint_position_rel_rad=self.qpos[:, 7:19] - self._standing,
+            base_height_m=self.qpos[:, 2],
             tracking_sigma=self.config.reward.tracking_sigma,
+            target_height_m=self.config.reward.target_height_m,
         )
         self.air_time[contact] = 0.0
         self.last_contact = contact

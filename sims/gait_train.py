@@ -38,6 +38,12 @@ STATE_FILE = "state.pt"
 LOG_FILE = "log.csv"
 PLOT_FILE = "training.png"
 POLICY_DIR = "policy"
+BEST_POLICY_DIR = "policy_best"
+#: Commands (vx, vy, yaw rate) of the selection evaluation: axes, combinations and the corners of the range.
+SELECTION_COMMANDS = (
+    (0.0, 0.0, 0.0), (0.5, 0.0, 0.0), (1.0, 0.0, 0.0), (-0.5, 0.0, 0.0), (0.0, 0.3, 0.0), (0.0, -0.3, 0.0),
+    (0.0, 0.0, 1.0), (0.0, 0.0, -1.0), (0.5, 0.0, 1.0), (1.0, 0.3, 1.0), (1.0, -0.3, -1.0), (-0.5, -0.3, -1.0),
+)  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -58,6 +64,9 @@ class PPOConfig:
     max_grad_norm: float = 1.0
     initial_log_std: float = -1.0
     checkpoint_every: int = 10
+    #: Evaluate the mean policy on SELECTION_COMMANDS (nominal robot) every this many iterations (0: never)
+    #: and keep the best one in ``policy_best/``: PPO's last iterate is not always its best.
+    select_every: int = 20
     env: GaitEnvConfig = field(default_factory=GaitEnvConfig)
 
 
@@ -160,6 +169,7 @@ class PPOTrainer:
         self.iteration = 0
         self.env_steps = 0
         self.wall_s = 0.0
+        self.best_score = math.inf
         env_seed = seed
         if resume:
             env_seed = self._load() + seed
@@ -185,6 +195,7 @@ class PPOTrainer:
         self.iteration = int(state["iteration"])
         self.env_steps = int(state["env_steps"])
         self.wall_s = float(state["wall_s"])
+        self.best_score = float(state.get("best_score", math.inf))
         # A fresh env seed per resumed run, so a resumed run does not replay the same commands.
         return self.iteration
 
@@ -200,14 +211,20 @@ class PPOTrainer:
             "iteration": self.iteration,
             "env_steps": self.env_steps,
             "wall_s": self.wall_s,
+            "best_score": self.best_score,
             "config": json.loads(json.dumps(asdict(self.config), default=str)),
         }
         tmp = self.out_dir / (STATE_FILE + ".tmp")
         torch.save(state, tmp)
         tmp.replace(self.out_dir / STATE_FILE)
         self.export(self.out_dir / POLICY_DIR)
+        if self.config.select_every and self.iteration % self.config.select_every == 0:
+            score = selection_score(self.out_dir / POLICY_DIR)
+            if score < self.best_score:
+                self.best_score = score
+                self.export(self.out_dir / BEST_POLICY_DIR, extra_info={"selection_score": round(score, 4)})
 
-    def export(self, directory: Path) -> None:
+    def export(self, directory: Path, *, extra_info: dict[str, Any] | None = None) -> None:
         """Write the numpy policy (weights + observation statistics + config) to ``directory``."""
         actor = NumpyActor(actor_weights_from_torch(self.actor), self.obs_norm.mean, self.obs_norm.std)
         info = {
@@ -216,6 +233,7 @@ class PPOTrainer:
             "iterations": self.iteration,
             "env_steps": self.env_steps,
             "train_wall_s": round(self.wall_s, 1),
+            **(extra_info or {}),
         }
         config = PolicyConfig(
             hidden_sizes=self.config.hidden_sizes,
@@ -410,6 +428,20 @@ class PPOTrainer:
                     plot_log(log_path, self.out_dir / PLOT_FILE)
                 if done_steps or done_time:
                     break
+
+
+def selection_score(policy_dir: Path, *, seconds: float = 5.0) -> float:
+    """Lower is better: RMS tracking errors (horizontal m/s + 0.5 x yaw rad/s) after 1.5 s of each
+    SELECTION_COMMANDS command on the nominal robot, plus 1 per fall."""
+    from robots.gait_policy import load_policy
+    from sims.gait_bench import SETTLE_S, _nominal_env, _run
+
+    policy = load_policy(policy_dir)
+    env = _nominal_env(len(SELECTION_COMMANDS), trot_policy=policy, seed=0)
+    env.commands[:] = np.array(SELECTION_COMMANDS)
+    falls, stats, _ = _run(env, policy, int(round((SETTLE_S + seconds) / 0.02)))
+    summary = stats.summary(1.0)
+    return summary["lin_vel_rms_mps"] + 0.5 * summary["yaw_rate_rms_radps"] + float(falls)
 
 
 def plot_log(log_path: Path, plot_path: Path) -> None:

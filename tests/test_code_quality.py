@@ -20,6 +20,7 @@ BIN = Path(sys.executable).parent
 CORE_MODULES = (
     "semexp_bt.types", "semexp_bt.config", "semexp_bt.geometry", "semexp_bt.evidence", "semexp_bt.memory",
     "semexp_bt.decision", "semexp_bt.relevance", "semexp_bt.metrics", "semexp_bt.scene", "semexp_bt.planner",
+    "semexp_bt.decision_baselines",
 )
 FORBIDDEN_IN_CORE = ("py_trees", "mujoco", "torch", "cyclonedds", "rclpy", "cv2", "sentence_transformers")
 

@@ -31,7 +31,8 @@ TARGET = "mug"
 # The hand-worked examples use the paper's literal rule (a term whose source does not cover the candidate
 # is omitted); the cross-source consistency reading is tested separately below.
 CONFIG = ArbitrationConfig(
-    tau=0.5, beta_o=1.0, beta_s=2.0, lambda_iou=0.5, mu=1.0, epsilon=1e-3, cross_source_consistency=False
+    tau=0.5, beta_o=1.0, beta_s=2.0, lambda_iou=0.5, mu=1.0, epsilon=1e-3, cross_source_consistency=False,
+    direction_prior=1.0,
 )
 
 
@@ -578,3 +579,24 @@ def test_cross_source_consistency_rewards_corroboration() -> None:
     vlm_only = arbitrate(scene=scene, detections=None, is_aligned=lambda label: True, config=config)
     assert [c.source for c in vlm_only.candidates] == ["scene"]
     assert vlm_only.candidates[0].score == pytest.approx(0.64)
+
+
+def test_direction_prior_lets_corroborated_object_evidence_outrank_a_bare_direction() -> None:
+    """Scene confidence 0.85 (tau 0.25 -> C~s = 0.8), detection 0.9 (C~o = 0.8667), IoU 0.4164 (lambda 0.5).
+
+    Fused object: 0.8667 * 0.8 * (0.4174)^0.5 = 0.4479. Direction: 0.8 * P with P = 0.25 -> 0.2; with the
+    literal P = 1 the direction (0.8) would win although the target is in plain view.
+    """
+    scene = SceneEvidence(
+        proposals=(SceneProposal(point_px=(97.5, 119.5), label="fire extinguisher"),
+                   SceneProposal(point_px=(40.0, 170.0), label="open area", kind="direction")),
+        scene_confidence=0.85,
+    )
+    detections = [Detection((77.0, 87.0, 118.0, 152.0), "fire extinguisher", 0.9)]
+    ours = arbitrate(scene=scene, detections=detections, is_aligned=lambda label: label == "fire extinguisher",
+                     config=ArbitrationConfig())
+    assert ours.target is not None and ours.target.kind == "object"
+    assert [round(c.score, 4) for c in ours.candidates] == [0.4479, 0.2]
+    literal = arbitrate(scene=scene, detections=detections, is_aligned=lambda label: label == "fire extinguisher",
+                        config=ArbitrationConfig(direction_prior=1.0))
+    assert literal.target is not None and literal.target.kind == "direction"

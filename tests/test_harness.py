@@ -318,7 +318,9 @@ def test_process_pool_records_errors_and_timeouts_and_finishes_the_rest(tmp_path
     assert rows[0]["status"] == rows[2]["status"] == STATUS_OK
 
 
-def test_a_worker_stuck_in_native_code_is_killed_by_the_parent(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+def test_a_worker_stuck_in_native_code_is_killed_by_the_parent(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     monkeypatch.setattr(harness, "HARD_KILL_GRACE_S", 4.0)
     small = spec(scenes=("alpha",), seeds=(0, 1, 2), strategies=("ours",), timeout_s=0.5)
     started = time.monotonic()
@@ -329,7 +331,9 @@ def test_a_worker_stuck_in_native_code_is_killed_by_the_parent(tmp_path: Path, m
     assert rows[0]["status"] == rows[2]["status"] == STATUS_OK
 
 
-def test_a_worker_that_dies_is_an_error_row_after_retries(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+def test_a_worker_that_dies_is_an_error_row_after_retries(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     monkeypatch.setattr(harness, "MAX_WORKER_DEATHS", 2)
     small = spec(scenes=("alpha",), seeds=(0, 1, 2), strategies=("ours",))
     result = run_sweep(small, tmp_path, run_fn=dying_run, workers=1, progress=None, check_names=False)

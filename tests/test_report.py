@@ -104,7 +104,9 @@ def test_metric_table_shows_the_papers_number_beside_ours() -> None:
 
 
 def test_pooled_column_pools_the_scenes() -> None:
-    rows = office_ours() + [row("road", "ours", 0, declared=False, distance_m=5.0, path_m=3.0, geodesic_m=9.0)]
+    rows = office_ours() + [
+        row("road", "ours", 0, declared=False, distance_m=5.0, path_m=3.0, geodesic_m=9.0)
+    ]
     summaries = cell_summaries(rows)
     assert summaries[(ALL_SCENES, "ours")]["n_episodes"] == 5
     assert summaries[(ALL_SCENES, "ours")]["sr"] == pytest.approx(3 / 5)
@@ -170,7 +172,9 @@ def test_paper_results_claim_a_gain_only_where_intervals_do_not_overlap(tmp_path
     for seed in range(10):
         for scene in ("garden_sim", "road"):
             rows.append(row(scene, "ours", seed, declared=True, distance_m=0.3, path_m=5, geodesic_m=4))
-            rows.append(row(scene, "ablation_baseline", seed, declared=False, distance_m=5, path_m=9, geodesic_m=4))
+            rows.append(
+                row(scene, "ablation_baseline", seed, declared=False, distance_m=5, path_m=9, geodesic_m=4)
+            )
             rows.append(row(scene, "ablation_arbitration", seed, declared=seed % 5 != 0, distance_m=0.3,
                             path_m=5, geodesic_m=4))  # fmt: skip
     path = write_paper_results(rows, tmp_path / "results.md", header={"machine": "test box"},

@@ -1,0 +1,68 @@
+"""Building a mission's executive: a fresh blackboard, the services, and the py_trees tree.
+
+Shared by the MuJoCo runner (``semexp_bt.runner``), the tree-overhead benchmark and the tests, so that
+every way of running a mission prepares the board the same way.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import py_trees
+
+from behaviours.services import SERVICES_KEY, MissionServices
+from behaviours.spec import BuildContext
+from blackboard.schema import fresh_board
+from semexp_bt.memory import TopologicalMemory
+from semexp_bt.relevance import instruction_target
+from semexp_bt.types import Pose2D
+
+#: The keys the runner writes before the first tick (its rows in blackboard.schema name "runner").
+RUNNER_KEYS = ("instruction", "target_label", "instructions_left", "start_pose", "memory", "mission_outcome",
+               "found_objects", "subgoal")
+
+
+def prepare_board(
+    *, instructions: list[str], start_pose: Pose2D, memory: TopologicalMemory, activity_stream: bool = False
+) -> py_trees.blackboard.Client:
+    """Clear the process-wide blackboard and write the mission's initial state.
+
+    Args:
+        instructions: the instructions in search order (at least one).
+        start_pose: where the robot starts.
+        memory: a fresh topological memory (it lives on the board under ``memory``).
+        activity_stream: record blackboard activity (for the display and the tick record).
+
+    Returns:
+        The runner's blackboard client (write access to :data:`RUNNER_KEYS`).
+    """
+    if not instructions:
+        raise ValueError("a mission needs at least one instruction")
+    fresh_board(activity_stream=activity_stream)
+    board = py_trees.blackboard.Client(name="runner")
+    for key in RUNNER_KEYS:
+        board.register_key(key=key, access=py_trees.common.Access.WRITE, remap_to="/" + key)
+    board.instruction = instructions[0]
+    board.target_label = instruction_target(instructions[0])
+    board.instructions_left = list(instructions[1:])
+    board.start_pose = start_pose
+    board.memory = memory
+    board.mission_outcome = "running"
+    board.found_objects = []
+    board.subgoal = None
+    return board
+
+
+def build_tree(*, mission_path: Path, services: MissionServices, registry=None) -> py_trees.trees.BehaviourTree:  # type: ignore[no-untyped-def]
+    """Load and build the mission tree with ``services``; the mission's ``config:`` overrides end up in
+    ``services.config``."""
+    from trees.loader import load_mission
+    from trees.registry import default_registry
+
+    registry = registry if registry is not None else default_registry()
+    context = BuildContext(
+        clock=services.robot.now_s, robot=services.robot, config=services.config, services={SERVICES_KEY: services}
+    )
+    mission = load_mission(mission_path, registry=registry, context=context)
+    services.config = mission.config
+    return py_trees.trees.BehaviourTree(root=mission.root)

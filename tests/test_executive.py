@@ -1,0 +1,283 @@
+"""The mission executive end to end on a backend with no physics: every shipped tree is loaded and ticked.
+
+The robot is :class:`robots.null_robot.NullRobot` (a perfect unicycle whose camera ray-casts a floor and
+vertical posts) and perception is scripted from what the camera really sees: each visible post is
+reported by the "detector" and the "VLM" with the labels and confidences the test sets. This isolates
+the tree, the behaviours and the paper's maths from MuJoCo and from the emulator's noise, so each test
+can state exactly what the robot must do. Each test prints the tree it asserts on.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import py_trees
+import pytest
+
+from behaviours.services import MissionServices
+from blackboard.schema import SCHEMA, SchemaError, checked_write, register_keys
+from robots.null_robot import NullRobot
+from semexp_bt.config import SemExpConfig
+from semexp_bt.executive import build_tree, prepare_board
+from semexp_bt.memory import TopologicalMemory
+from semexp_bt.perception import PerceptionResult
+from semexp_bt.planner import DepthArcPlanner
+from semexp_bt.recorder import TickRecorder, replay
+from semexp_bt.relevance import CachedRelevance, LexicalRelevance
+from semexp_bt.types import Detection, Observation, Pose2D, SceneEvidence, SceneProposal
+from sims.scripted_perception import ScriptedPerception
+
+TREES = Path(__file__).resolve().parents[1] / "trees"
+TICK_S = 0.02
+
+
+@dataclass(frozen=True)
+class Post:
+    """A vertical cylinder in the NullRobot's world and what each model says about it."""
+
+    object_id: int
+    x_m: float
+    y_m: float
+    vlm_label: str
+    detector_label: str | None  # None: the detector never reports it
+    detector_confidence: float = 0.9
+    radius_m: float = 0.2
+    height_m: float = 0.6
+
+
+def seeing(posts: list[Post], *, directions: bool = True) -> Callable[[Observation], PerceptionResult]:
+    """Scripted evidence from the segmentation: boxes from visible masks, VLM points at mask centres."""
+
+    def answer(observation: Observation) -> PerceptionResult:
+        proposals: list[SceneProposal] = []
+        detections: list[Detection] = []
+        seg = observation.segmentation
+        assert seg is not None
+        for post in posts:
+            rows, cols = np.nonzero(seg == post.object_id)
+            if rows.size < 30:
+                continue
+            box = (float(cols.min()), float(rows.min()), float(cols.max()), float(rows.max()))
+            centre = ((box[0] + box[2]) / 2, (box[1] + box[3]) / 2)
+            proposals.append(SceneProposal(point_px=centre, label=post.vlm_label, kind="object"))
+            if post.detector_label is not None:
+                detections.append(Detection(box, post.detector_label, post.detector_confidence))
+        if directions:
+            proposals.append(SceneProposal(point_px=(40.0, 170.0), label="open area on the left", kind="direction"))
+            proposals.append(SceneProposal(point_px=(280.0, 170.0), label="open area on the right", kind="direction"))
+        return PerceptionResult(scene=SceneEvidence(tuple(proposals), 0.85), detections=tuple(detections),
+                                observation_stamp_s=observation.stamp_s)
+
+    return answer
+
+
+def make_services(robot: NullRobot, answer: Callable[[Observation], PerceptionResult], *, budget_s: float = 240.0,
+                  config: SemExpConfig | None = None) -> MissionServices:
+    return MissionServices(
+        robot=robot, perception=ScriptedPerception([answer], latency_s=2.5),
+        relevance=CachedRelevance(LexicalRelevance()), config=config or SemExpConfig(), planner=DepthArcPlanner(),
+        rng=np.random.default_rng(0), budget_s=budget_s,
+    )
+
+
+def run(mission: str, services: MissionServices, instructions: list[str], *, max_sim_s: float = 400.0,
+        recorder_kwargs: dict | None = None) -> tuple[py_trees.trees.BehaviourTree, py_trees.blackboard.Client]:
+    robot = services.robot
+    board = prepare_board(instructions=instructions, start_pose=robot.base_pose(),
+                          memory=TopologicalMemory(services.config.memory),
+                          activity_stream=recorder_kwargs is not None)
+    tree = build_tree(mission_path=TREES / mission, services=services)
+    recorder = TickRecorder(tree=tree, memory_getter=lambda: board.memory, subgoal_getter=lambda: board.subgoal,
+                            **(recorder_kwargs or {"path": None, "display": False}))
+    tree.setup()
+    ticks = 0
+    while robot.now_s() < max_sim_s:
+        tree.tick()
+        ticks += 1
+        recorder.after_tick(ticks, robot.now_s())
+        if tree.root.status != py_trees.common.Status.RUNNING:
+            break
+        robot.advance(TICK_S)
+    recorder.close()
+    print(py_trees.display.unicode_tree(tree.root, show_status=True))
+    return tree, board
+
+
+def test_object_search_finds_the_target_and_stops_next_to_it() -> None:
+    target = Post(1, 3.0, 0.6, vlm_label="fire extinguisher", detector_label="fire extinguisher")
+    robot = NullRobot(start_pose=Pose2D(0.0, 0.0, math.pi), posts=((1, 3.0, 0.6, 0.2, 0.6),))
+    services = make_services(robot, seeing([target]))
+    tree, board = run("object_search.yaml", services, ["find the fire extinguisher"])
+    assert tree.root.status == py_trees.common.Status.SUCCESS
+    assert board.mission_outcome == "success"
+    assert [f["label"] for f in board.found_objects] == ["fire extinguisher"]
+    pose = robot.base_pose()
+    assert math.hypot(pose.x_m - 3.0, pose.y_m - 0.6) < 1.6
+    assert robot.stopped >= 1 and robot.base_twist().linear_x_mps == 0.0
+    # The panorama saw the target behind the start heading, so the first decision already chose it.
+    first = services.decision_log[0]
+    chosen = next(c for c in first["candidates"] if c["node_id"] == first["selected_node_id"])
+    assert chosen["label"] == "fire extinguisher"
+
+
+def test_a_distractor_the_detector_confuses_is_never_confirmed() -> None:
+    """The detector calls a red trash can a weak 'fire extinguisher'; the VLM says 'red trash can'.
+
+    Cross-source consistency leaves the uncorroborated confusion with a low posterior score, so the robot
+    may go and look, but it never declares success there; it finds the real extinguisher instead.
+    """
+    distractor = Post(2, 2.5, -0.5, vlm_label="red trash can", detector_label="fire extinguisher",
+                      detector_confidence=0.45)
+    target = Post(1, -3.0, 2.5, vlm_label="fire extinguisher", detector_label="fire extinguisher")
+    robot = NullRobot(start_pose=Pose2D(0.0, 0.0, 0.0),
+                      posts=((2, 2.5, -0.5, 0.2, 0.6), (1, -3.0, 2.5, 0.2, 0.6)))
+    services = make_services(robot, seeing([distractor, target]))
+    tree, board = run("object_search.yaml", services, ["find the fire extinguisher"])
+    assert board.mission_outcome == "success"
+    found = board.found_objects[-1]["position_m"]
+    assert math.hypot(found[0] + 3.0, found[1] - 2.5) < 0.5, f"confirmed at {found}, not at the extinguisher"
+    assert not any(math.hypot(f["position_m"][0] - 2.5, f["position_m"][1] + 0.5) < 1.0 for f in board.found_objects)
+
+
+def test_budget_guard_fails_the_mission_safely_when_nothing_is_found() -> None:
+    robot = NullRobot(start_pose=Pose2D(0.0, 0.0, 0.0))
+    services = make_services(robot, seeing([]), budget_s=40.0)
+    tree, board = run("object_search.yaml", services, ["find the fire extinguisher"])
+    assert tree.root.status == py_trees.common.Status.FAILURE
+    assert board.mission_outcome == "budget_exceeded"
+    assert robot.now_s() == pytest.approx(40.0, abs=0.05)
+    assert robot.stopped >= 1 and robot.base_twist().linear_x_mps == 0.0
+    assert any(e["kind"] == "budget_exceeded" for e in services.events)
+
+
+def test_multi_object_search_confirms_each_object_in_turn() -> None:
+    posts = [Post(1, 3.0, 0.0, "fire extinguisher", "fire extinguisher"), Post(2, -2.0, 2.5, "red trash can", None)]
+
+    def answer(observation: Observation) -> PerceptionResult:
+        # The detector is prompted with the current target: it reports only what matches the prompt.
+        prompt = services.perception.requests[-1][1]
+        result = seeing(posts)(observation)
+        dets = tuple(d for d in result.detections if d.label == prompt)
+        if prompt == "red trash can":
+            dets += tuple(Detection(p.box_xyxy_px, "red trash can", 0.9) for p in _boxes(observation, 2))
+        return PerceptionResult(scene=result.scene, detections=dets, observation_stamp_s=observation.stamp_s)
+
+    robot = NullRobot(start_pose=Pose2D(0.0, 0.0, 0.0), posts=((1, 3.0, 0.0, 0.2, 0.6), (2, -2.0, 2.5, 0.2, 0.6)))
+    services = make_services(robot, answer, budget_s=500.0)
+    tree, board = run("multi_object_search.yaml", services, ["find the fire extinguisher", "find the red trash can"],
+                      max_sim_s=520.0)
+    assert tree.root.status == py_trees.common.Status.SUCCESS, [e for e in services.events]
+    assert [f["label"] for f in board.found_objects] == ["fire extinguisher", "red trash can"]
+    assert board.instructions_left == []
+
+
+@dataclass(frozen=True)
+class _Box:
+    box_xyxy_px: tuple[float, float, float, float]
+
+
+def _boxes(observation: Observation, object_id: int) -> list[_Box]:
+    rows, cols = np.nonzero(observation.segmentation == object_id)
+    if rows.size < 30:
+        return []
+    return [_Box((float(cols.min()), float(rows.min()), float(cols.max()), float(rows.max())))]
+
+
+def test_search_and_return_walks_back_to_the_start() -> None:
+    target = Post(1, 3.5, 0.0, "fire extinguisher", "fire extinguisher")
+    robot = NullRobot(start_pose=Pose2D(0.0, 0.0, 0.0), posts=((1, 3.5, 0.0, 0.2, 0.6),))
+    services = make_services(robot, seeing([target]), budget_s=400.0)
+    tree, board = run("search_and_return.yaml", services, ["find the fire extinguisher"])
+    assert tree.root.status == py_trees.common.Status.SUCCESS
+    assert [f["label"] for f in board.found_objects] == ["fire extinguisher"]
+    pose = robot.base_pose()
+    assert math.hypot(pose.x_m, pose.y_m) < 0.6, f"ended at ({pose.x_m:.2f}, {pose.y_m:.2f}), not at the start"
+
+
+def test_two_missions_in_one_process_share_no_state() -> None:
+    target = Post(1, 3.0, 0.0, "fire extinguisher", "fire extinguisher")
+    first_robot = NullRobot(start_pose=Pose2D(0.0, 0.0, 0.0), posts=((1, 3.0, 0.0, 0.2, 0.6),))
+    first = make_services(first_robot, seeing([target]))
+    _, board_one = run("object_search.yaml", first, ["find the fire extinguisher"])
+    memory_one = board_one.memory
+    assert board_one.mission_outcome == "success" and len(memory_one) > 1
+
+    empty_robot = NullRobot(start_pose=Pose2D(10.0, 10.0, 0.0))
+    second = make_services(empty_robot, seeing([], directions=False), budget_s=20.0)
+    _, board_two = run("object_search.yaml", second, ["find the fire extinguisher"])
+    assert board_two.memory is not memory_one
+    assert len(board_two.memory) == 1  # only its own master node: nothing carried over
+    assert board_two.found_objects == [] and board_two.mission_outcome == "budget_exceeded"
+
+
+def test_display_shows_changes_and_the_record_replays(tmp_path: Path) -> None:
+    target = Post(1, 2.5, 0.0, "fire extinguisher", "fire extinguisher")
+    robot = NullRobot(start_pose=Pose2D(0.0, 0.0, 0.0), posts=((1, 2.5, 0.0, 0.2, 0.6),))
+    services = make_services(robot, seeing([target]))
+    stream = io.StringIO()
+    record = tmp_path / "ticks.jsonl"
+    tree, board = run("object_search.yaml", services, ["find the fire extinguisher"],
+                      recorder_kwargs={"path": record, "display": True, "stream": stream})
+    shown = stream.getvalue()
+    assert board.mission_outcome == "success"
+    assert "--- tick 1 " in shown and "[o] Mission" in shown.replace("[-]", "[o]") or "Mission" in shown
+    assert "memory:" in shown and "subgoal: node" in shown and "board /target <- Arbitrate" in shown
+    # Only ticks where something changed are shown: far fewer blocks than ticks.
+    ticks = sum(1 for _ in record.open())
+    assert 0 < shown.count("--- tick ") < ticks / 3
+    lines = [json.loads(line) for line in record.open()]
+    assert lines[0]["tick"] == 1 and "Gait50Hz" in lines[0]["nodes"]
+    assert all(node["ms"] >= 0.0 for line in lines for node in line["nodes"].values())
+    out = io.StringIO()
+    assert replay(record, stream=out) == ticks
+    assert "ConfirmTarget: SUCCESS" in out.getvalue()
+
+
+def test_no_display_and_no_record_add_no_visitor() -> None:
+    robot = NullRobot(start_pose=Pose2D(0.0, 0.0, 0.0))
+    services = make_services(robot, seeing([]), budget_s=5.0)
+    prepare_board(instructions=["find the fire extinguisher"], start_pose=robot.base_pose(),
+                  memory=TopologicalMemory(services.config.memory))
+    tree = build_tree(mission_path=TREES / "object_search.yaml", services=services)
+    TickRecorder(tree=tree, path=None, display=False)
+    assert tree.visitors == []
+    assert py_trees.blackboard.Blackboard.activity_stream is None
+
+
+def test_schema_refuses_unknown_keys_wrong_types_and_undeclared_remaps() -> None:
+    prepare_board(instructions=["find x"], start_pose=Pose2D(0, 0, 0), memory=TopologicalMemory())
+    client = py_trees.blackboard.Client(name="probe")
+    with pytest.raises(SchemaError, match="not in blackboard.schema.SCHEMA"):
+        register_keys(client, read=("no_such_key",))
+    with pytest.raises(SchemaError, match="not in blackboard.schema.SCHEMA"):
+        register_keys(client, read=("subgoal",), remap={"subgoal": "somewhere_else"})
+    with pytest.raises(SchemaError, match="does not use"):
+        register_keys(client, read=("subgoal",), remap={"memory": "subgoal"})
+    register_keys(client, write=("mission_outcome",))
+    with pytest.raises(SchemaError, match="expects"):
+        checked_write(client, "mission_outcome", 3)
+    assert set(SCHEMA) >= {"memory", "subgoal", "target", "cmd_twist", "mission_outcome"}
+
+
+def test_remapped_memory_key_is_what_the_behaviours_use(tmp_path: Path) -> None:
+    """A mission can point a behaviour's logical key elsewhere on the board; the schema must allow the target."""
+    tree_file = tmp_path / "remap.yaml"
+    tree_file.write_text(
+        "tree:\n  type: Sequence\n  name: Root\n  params: {memory: true}\n  children:\n"
+        "    - type: SetSubgoalToStart\n      name: Home\n      remap: {memory: memory}\n"
+    )
+    robot = NullRobot(start_pose=Pose2D(1.0, 2.0, 0.0))
+    services = make_services(robot, seeing([]))
+    board = prepare_board(instructions=["find x"], start_pose=robot.base_pose(), memory=TopologicalMemory())
+    board.memory.add_master(position_m=(1.0, 2.0, 0.0), stamp_s=0.0)
+    tree = build_tree(mission_path=tree_file, services=services)
+    tree.tick()
+    print(py_trees.display.unicode_tree(tree.root, show_status=True))
+    assert tree.root.status == py_trees.common.Status.SUCCESS
+    assert board.subgoal is not None and board.subgoal.position_m[:2] == (1.0, 2.0)
