@@ -1,8 +1,13 @@
-"""BackUp: reverse a short distance, the first step of a Nav2-style recovery.
+"""BackUp: step away from what the robot is stuck against, the first step of a Nav2-style recovery.
 
-Semantics: RUNNING while commanding ``-speed_mps`` until the base has moved ``distance_m``; SUCCESS
-then; also SUCCESS (with a note) after ``timeout_s`` so recovery never hangs on a wall behind the
-robot. Reversing is blind (the camera looks forward), so the distance is kept short.
+Semantics: on start it picks, among eight body-frame directions (back, back-left, left, ... never
+straight ahead, where the planner already failed), the one with the most free room on the occupancy map
+(``local_map``): it uses the mapped distance to the nearest obstacle at ``distance_m`` along each
+direction. With no map it picks straight back. It is RUNNING while commanding that direction at
+``speed_mps``, until the base has moved ``distance_m``, then SUCCESS. It is also SUCCESS (with a note)
+after ``timeout_s``, so recovery never hangs on a robot boxed in on every side. A legged robot can step
+sideways, so side steps are allowed; the map remembers walls the camera no longer sees, so the step is
+not blind.
 
 Example:
     - type: BackUp
@@ -21,12 +26,16 @@ from behaviours.base import SemExpBehaviour
 from behaviours.spec import BuildContext, ParamSpec
 from semexp_bt.types import Twist
 
+#: Candidate escape headings in the body frame (radians from forward), straight ahead excluded.
+ESCAPE_HEADINGS_RAD = tuple(math.radians(a) for a in (180, 135, -135, 90, -90, 45, -45))
+
 
 class BackUp(SemExpBehaviour):
+    READS = ("local_map",)
     WRITES = ("cmd_twist", "cmd_stamp_s")
     PARAMS = {
-        "distance_m": ParamSpec("float", doc="distance to reverse, m", default=0.3, gt=0.0, le=2.0),
-        "speed_mps": ParamSpec("float", doc="reversing speed, m/s", default=0.2, gt=0.0, le=0.5),
+        "distance_m": ParamSpec("float", doc="distance to step away, m", default=0.3, gt=0.0, le=2.0),
+        "speed_mps": ParamSpec("float", doc="stepping speed, m/s", default=0.2, gt=0.0, le=0.5),
         "timeout_s": ParamSpec("float", doc="SUCCESS anyway after this long, s", default=4.0, gt=0.0),
     }
 
@@ -45,10 +54,29 @@ class BackUp(SemExpBehaviour):
         self.speed_mps = abs(speed_mps)
         self.timeout_s = timeout_s
         self._start = (0.0, 0.0, 0.0)
+        self._heading = math.pi
 
     def initialise(self) -> None:
         pose = self.services.robot.base_pose()
         self._start = (self.now_s(), pose.x_m, pose.y_m)
+        self._heading = self._escape_heading(pose)
+
+    def _escape_heading(self, pose) -> float:  # type: ignore[no-untyped-def]
+        """The body-frame heading with the most mapped room (straight back when there is no map)."""
+        local_map = self.read("local_map")
+        if local_map is None:
+            return math.pi
+        occupied = local_map.occupied()
+        if not occupied.any():
+            return math.pi
+        best, best_room = math.pi, -1.0
+        for heading in ESCAPE_HEADINGS_RAD:
+            world = pose.yaw_rad + heading
+            probe = [pose.x_m + self.distance_m * math.cos(world), pose.y_m + self.distance_m * math.sin(world)]
+            room = local_map.clearance_at(probe)
+            if room > best_room + 1e-6:
+                best, best_room = heading, room
+        return best
 
     def update(self) -> py_trees.common.Status:
         t0, x0, y0 = self._start
@@ -58,7 +86,8 @@ class BackUp(SemExpBehaviour):
             self.command(Twist.zero())
             self.feedback_message = f"backed up {moved:.2f} m"
             return py_trees.common.Status.SUCCESS
-        self.command(Twist(linear_x_mps=-self.speed_mps))
+        self.command(Twist(linear_x_mps=self.speed_mps * math.cos(self._heading),
+                           linear_y_mps=self.speed_mps * math.sin(self._heading)))
         return py_trees.common.Status.RUNNING
 
     def terminate(self, new_status: py_trees.common.Status) -> None:

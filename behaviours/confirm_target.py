@@ -14,7 +14,7 @@ fooled the detector once is not trusted twice).
 Example:
     - type: ConfirmTarget
       name: Confirm
-      params: {confirm_radius_m: 1.6, extra_views: 1, min_fused_confidence: 0.5}
+      params: {confirm_radius_m: 1.0, extra_views: 1, min_fused_confidence: 0.3}
 """
 
 from __future__ import annotations
@@ -48,7 +48,7 @@ class ConfirmTarget(SemExpBehaviour):
     WRITES = ("found_objects", "memory")
     PARAMS = {
         "confirm_radius_m": ParamSpec(
-            "float", doc="the target must lie this close to the robot, m", default=1.6, gt=0.0
+            "float", doc="the target must lie this close to the robot, m", default=1.0, gt=0.0
         ),
         "min_score": ParamSpec(
             "float",
@@ -59,7 +59,9 @@ class ConfirmTarget(SemExpBehaviour):
             le=1.0,
         ),
         "min_fused_confidence": ParamSpec(
-            "float", doc="least fused confidence C_f of a confirming view", default=0.5, ge=0.0, le=1.0
+            "float", doc="least fused confidence C_f of a confirming view (C_f is shared with the view's "
+            "direction candidates, so it is a relative check; min_score is the absolute one)",
+            default=0.3, ge=0.0, le=1.0,
         ),
         "extra_views": ParamSpec(
             "int", doc="further views that must agree before success", default=1, ge=0, le=10
@@ -91,9 +93,9 @@ class ConfirmTarget(SemExpBehaviour):
         self,
         name: str,
         *,
-        confirm_radius_m: float = 1.6,
+        confirm_radius_m: float = 1.0,
         min_score: float = 0.1,
-        min_fused_confidence: float = 0.5,
+        min_fused_confidence: float = 0.3,
         extra_views: int = 1,
         consistency_radius_m: float = 0.8,
         align_threshold: float = 0.9,

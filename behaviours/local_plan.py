@@ -1,11 +1,21 @@
 """LocalPlan: obstacle-aware local planning from the head camera's depth toward the subgoal.
 
-Semantics: every tick it receives (the tree runs it behind a 12 Hz RateLimiter), it renders/reads the
-latest depth frame, expresses the subgoal in the robot's ``base_footprint`` frame (x forward, y left,
-z up from the floor) and asks the planner for (v, omega), which it writes to ``cmd_twist``. SUCCESS
-when the planner reports arrival within ``arrival_radius_m``; FAILURE when no subgoal is set or the
-planner has reported "blocked" for longer than ``blocked_timeout_s``; RUNNING otherwise. Commands a
-zero twist when it ends or is preempted.
+Semantics: every tick it receives (the tree runs it behind a 12 Hz RateLimiter), it renders the latest
+depth frame and adds it to the occupancy map (``local_map``). Every ``replan_period_s`` it recomputes the
+shortest path on that map to the subgoal (or to the reachable point nearest it, for a subgoal on an
+object's surface). It then asks the depth-only local planner for (v, omega) toward the path point
+``lookahead_m`` ahead, or toward the subgoal itself on the last leg, and writes the command to
+``cmd_twist``. The map knows the way round walls seen earlier; the local planner keeps the robot clear
+of what it sees now.
+
+- SUCCESS: within ``arrival_radius_m`` of the subgoal, at the end of the mapped path, or the planner
+  reports arrival on the last leg; in each case after turning in place to face the subgoal, so that
+  the perception that follows looks at it.
+- FAILURE: no subgoal is set; the planner has reported "blocked" for longer than ``blocked_timeout_s``;
+  or the map has had no path for longer than ``no_path_timeout_s``.
+- RUNNING otherwise.
+
+It commands a zero twist when it ends or is preempted.
 
 Example:
     - type: RateLimiter
@@ -27,6 +37,8 @@ import py_trees
 
 from behaviours.base import SemExpBehaviour
 from behaviours.spec import BuildContext, ParamSpec
+from semexp_bt.local_map import lookahead_point
+from semexp_bt.planner import arc_points
 from semexp_bt.types import Pose2D, Twist
 
 
@@ -39,9 +51,34 @@ def base_footprint_to_world(pose: Pose2D) -> np.ndarray:
     return out
 
 
+def pure_pursuit(goal_base: tuple[float, float], *, max_speed_mps: float) -> Twist:
+    """Pure pursuit toward a point in the base frame: turn in place when it is far off the heading."""
+    bearing = math.atan2(goal_base[1], goal_base[0])
+    distance = math.hypot(*goal_base)
+    if abs(bearing) > 0.7:
+        return Twist(angular_z_radps=math.copysign(0.8, bearing))
+    curvature = 2.0 * goal_base[1] / max(distance * distance, 1e-6)
+    speed = max_speed_mps * max(0.3, math.cos(bearing) ** 2)
+    yaw_rate = max(-1.0, min(1.0, curvature * speed))
+    return Twist(linear_x_mps=speed, angular_z_radps=yaw_rate)
+
+
+def arc_is_clear(twist: Twist, obstacles_xy: np.ndarray, *, clearance_m: float, horizon_s: float = 1.5) -> bool:
+    """Whether the arc the twist sweeps in ``horizon_s`` stays ``clearance_m`` from every obstacle point."""
+    if obstacles_xy is None or len(obstacles_xy) == 0:
+        return True
+    if twist.linear_x_mps <= 0.0:
+        return True  # turning in place sweeps no new ground
+    length = max(twist.linear_x_mps * horizon_s, 0.3)
+    curvature = twist.angular_z_radps / twist.linear_x_mps
+    samples = arc_points(curvature_1pm=curvature, arclength_m=np.linspace(0.0, length, 16))
+    gaps = np.linalg.norm(samples[:, None, :] - np.asarray(obstacles_xy)[None, :, :2], axis=2)
+    return bool(gaps.min() >= clearance_m)
+
+
 class LocalPlan(SemExpBehaviour):
-    READS = ("subgoal",)
-    WRITES = ("plan", "cmd_twist", "cmd_stamp_s")
+    READS = ("subgoal", "local_map")
+    WRITES = ("plan", "cmd_twist", "cmd_stamp_s", "local_map")
     PARAMS = {
         "arrival_radius_m": ParamSpec(
             "float", doc="SUCCESS within this distance of the subgoal, m", default=0.7, gt=0.0
@@ -49,7 +86,23 @@ class LocalPlan(SemExpBehaviour):
         "blocked_timeout_s": ParamSpec(
             "float", doc="FAILURE after being blocked this long, s", default=6.0, gt=0.0
         ),
+        "replan_period_s": ParamSpec(
+            "float", doc="recompute the path on the occupancy map this often, s", default=1.0, gt=0.0
+        ),
+        "lookahead_m": ParamSpec(
+            "float", doc="the local planner aims at the path point this far ahead, m", default=1.2, gt=0.0
+        ),
+        "no_path_timeout_s": ParamSpec(
+            "float", doc="FAILURE when the map has had no path to the subgoal for this long, s",
+            default=4.0, gt=0.0,
+        ),
     }
+
+    #: Pure-pursuit speed along a mapped path, and the clearance its arc must keep from live depth points.
+    pursuit_speed_mps = 0.6
+    #: On arrival the robot turns until the subgoal is within this bearing (the camera's half view is 0.48 rad).
+    facing_tolerance_rad = 0.3
+    pursuit_clearance_m = 0.33
 
     def __init__(
         self,
@@ -57,16 +110,41 @@ class LocalPlan(SemExpBehaviour):
         *,
         arrival_radius_m: float = 0.7,
         blocked_timeout_s: float = 6.0,
+        replan_period_s: float = 1.0,
+        lookahead_m: float = 1.2,
+        no_path_timeout_s: float = 4.0,
         context: BuildContext,
         remap: Mapping[str, str] | None = None,
     ) -> None:
         super().__init__(name, context=context, remap=remap)
         self.arrival_radius_m = arrival_radius_m
         self.blocked_timeout_s = blocked_timeout_s
+        self.replan_period_s = replan_period_s
+        self.lookahead_m = lookahead_m
+        self.no_path_timeout_s = no_path_timeout_s
         self._blocked_since: float | None = None
+        self._path: np.ndarray | None = None
+        self._planned_at = -math.inf
+        self._planned_for: tuple[float, float, float] | None = None
+        self._no_path_since: float | None = None
 
     def initialise(self) -> None:
         self._blocked_since = None
+        self._path = None
+        self._planned_at = -math.inf
+        self._no_path_since = None
+
+    def _global_path(self, pose: Pose2D, goal_xy: tuple[float, float], subgoal_key: tuple) -> np.ndarray | None:
+        """The occupancy-map path to the subgoal, recomputed every ``replan_period_s`` or on a new subgoal."""
+        local_map = self.read("local_map")
+        if local_map is None:
+            return None
+        now = self.now_s()
+        if subgoal_key != self._planned_for or now - self._planned_at >= self.replan_period_s:
+            with self.timed("global_path"):
+                self._path = local_map.path((pose.x_m, pose.y_m), goal_xy)
+            self._planned_at, self._planned_for = now, subgoal_key
+        return self._path
 
     def update(self) -> py_trees.common.Status:
         subgoal = self.read("subgoal")
@@ -75,15 +153,42 @@ class LocalPlan(SemExpBehaviour):
             return py_trees.common.Status.FAILURE
         robot = self.services.robot
         pose = robot.base_pose()
-        gx, gy = subgoal.position_m[0] - pose.x_m, subgoal.position_m[1] - pose.y_m
-        c, s = math.cos(pose.yaw_rad), math.sin(pose.yaw_rad)
-        goal_base = (c * gx + s * gy, -s * gx + c * gy)
-        if math.hypot(*goal_base) <= self.arrival_radius_m:
-            self.command(Twist.zero())
-            self.feedback_message = "arrived"
-            return py_trees.common.Status.SUCCESS
+        goal_xy = (subgoal.position_m[0], subgoal.position_m[1])
+        if math.hypot(goal_xy[0] - pose.x_m, goal_xy[1] - pose.y_m) <= self.arrival_radius_m:
+            return self._arrive(pose, goal_xy, "arrived")
         with self.timed("planner"):
             frame = robot.observe_depth()
+            local_map = self.read("local_map")
+            if local_map is not None:
+                local_map.integrate(frame)
+            path = self._global_path(pose, goal_xy, (subgoal.node_id, *subgoal.position_m[:2]))
+            # Aim at a point a little way along the mapped path (the map knows the way round walls seen
+            # earlier); with no map, or no path on it yet, aim straight at the subgoal.
+            final_leg = True
+            aim = np.asarray(goal_xy)
+            if path is not None:
+                self._no_path_since = None
+                path_end = path[-1]
+                remaining = float(np.linalg.norm(np.diff(path, axis=0), axis=1).sum()) if len(path) > 1 else 0.0
+                if remaining <= 0.15:
+                    return self._arrive(
+                        pose, goal_xy, f"arrived at the nearest reachable point, {math.dist(path_end, goal_xy):.2f} m away"
+                    )
+                aim = lookahead_point(path, distance_m=self.lookahead_m)
+                final_leg = remaining <= self.lookahead_m
+                if final_leg:
+                    aim = np.asarray(goal_xy)
+            elif local_map is not None:
+                if self._no_path_since is None:
+                    self._no_path_since = self.now_s()
+                elif self.now_s() - self._no_path_since > self.no_path_timeout_s:
+                    self.command(Twist.zero())
+                    self.feedback_message = "no path to the subgoal on the map"
+                    self.services.log_event("no_path", node_id=subgoal.node_id)
+                    return py_trees.common.Status.FAILURE
+            gx, gy = aim[0] - pose.x_m, aim[1] - pose.y_m
+            c, s = math.cos(pose.yaw_rad), math.sin(pose.yaw_rad)
+            goal_base = (c * gx + s * gy, -s * gx + c * gy)
             camera_to_base = np.linalg.inv(base_footprint_to_world(frame.base_pose)) @ frame.camera_to_world
             result = self.services.planner.plan(
                 depth_m=frame.depth_m,
@@ -93,13 +198,22 @@ class LocalPlan(SemExpBehaviour):
                 stamp_s=self.now_s(),
                 base_pose=pose,
             )
+            twist = result.twist
+            if path is not None and not final_leg:
+                # The mapped path already keeps the robot's radius from every obstacle seen so far:
+                # follow it (pure pursuit), and let the local planner's command stand only when the
+                # pursuit arc would pass closer than the robot's radius to what the camera sees now.
+                pursuit = pure_pursuit(goal_base, max_speed_mps=self.pursuit_speed_mps)
+                if arc_is_clear(pursuit, result.obstacle_points_xy, clearance_m=self.pursuit_clearance_m):
+                    twist = pursuit
         self.write("plan", result)
-        self.command(result.twist)
+        self.command(twist)
         self.feedback_message = (
-            f"{result.status} d={math.hypot(*goal_base):.2f} m v={result.twist.linear_x_mps:.2f}"
+            f"{result.status} d={math.dist(goal_xy, (pose.x_m, pose.y_m)):.2f} m v={twist.linear_x_mps:.2f}"
+            + ("" if path is None else f" path {len(path)} cells")
         )
-        if result.status == "arrived":
-            return py_trees.common.Status.SUCCESS
+        if result.status == "arrived" and final_leg:
+            return self._arrive(pose, goal_xy, "arrived")
         if result.status == "blocked":
             if self._blocked_since is None:
                 self._blocked_since = self.now_s()
@@ -108,6 +222,17 @@ class LocalPlan(SemExpBehaviour):
         else:
             self._blocked_since = None
         return py_trees.common.Status.RUNNING
+
+    def _arrive(self, pose: Pose2D, goal_xy: tuple[float, float], note: str) -> py_trees.common.Status:
+        """Arrival: turn in place to face the subgoal first, so the next perception looks at it."""
+        bearing = math.remainder(math.atan2(goal_xy[1] - pose.y_m, goal_xy[0] - pose.x_m) - pose.yaw_rad, math.tau)
+        if abs(bearing) > self.facing_tolerance_rad:
+            self.command(Twist(angular_z_radps=math.copysign(max(0.3, min(0.8, 1.5 * abs(bearing))), bearing)))
+            self.feedback_message = f"{note}; turning to face the subgoal ({math.degrees(bearing):.0f} deg)"
+            return py_trees.common.Status.RUNNING
+        self.command(Twist.zero())
+        self.feedback_message = note
+        return py_trees.common.Status.SUCCESS
 
     def terminate(self, new_status: py_trees.common.Status) -> None:
         if new_status != py_trees.common.Status.RUNNING:

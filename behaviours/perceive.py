@@ -26,8 +26,8 @@ from semexp_bt.types import Twist
 
 
 class Perceive(SemExpBehaviour):
-    READS = ("instruction", "target_label")
-    WRITES = ("observation", "scene_evidence", "detections", "cmd_twist", "cmd_stamp_s")
+    READS = ("instruction", "target_label", "local_map")
+    WRITES = ("observation", "scene_evidence", "detections", "cmd_twist", "cmd_stamp_s", "local_map")
     PARAMS = {
         "stable_speed_mps": ParamSpec(
             "float", doc="base speed below which the viewpoint is stable, m/s", default=0.05, gt=0.0
@@ -79,6 +79,9 @@ class Perceive(SemExpBehaviour):
                 return py_trees.common.Status.RUNNING
             observation = robot.observe()
             self.write("observation", observation)
+            local_map = self.read("local_map")
+            if local_map is not None:
+                local_map.integrate(observation)
             self._job = self.services.perception.submit(
                 observation=observation,
                 instruction=self.read("instruction"),

@@ -34,7 +34,7 @@ FRONTIER_LABEL = "unexplored area"
 
 
 class UpdateMemory(SemExpBehaviour):
-    READS = ("arbitration", "target", "observation", "subgoal", "scene_evidence")
+    READS = ("arbitration", "target", "observation", "subgoal", "scene_evidence", "local_map", "instruction")
     WRITES = ("memory",)
     PARAMS = {
         "direction_range_m": ParamSpec(
@@ -80,6 +80,10 @@ class UpdateMemory(SemExpBehaviour):
             le=1.0,
         ),
         "max_frontiers": ParamSpec("int", doc="at most this many frontiers per view", default=2, ge=0),
+        "map_frontier_confidence": ParamSpec(
+            "float", doc="confidence of a node at an occupancy-map frontier (0: no map frontiers)",
+            default=0.6, ge=0.0, le=1.0,
+        ),
     }
 
     def __init__(
@@ -96,6 +100,7 @@ class UpdateMemory(SemExpBehaviour):
         frontier_min_width_deg: float = 8.0,
         frontier_confidence: float = 0.5,
         max_frontiers: int = 2,
+        map_frontier_confidence: float = 0.6,
         context: BuildContext,
         remap: Mapping[str, str] | None = None,
     ) -> None:
@@ -106,6 +111,9 @@ class UpdateMemory(SemExpBehaviour):
         self.standoff_m = standoff_m
         self.landmark_weight = landmark_weight
         self.min_place_depth_m = 0.5
+        self.map_observe_radius_m = 6.0
+        self.seen_fraction = 0.85
+        self.map_frontier_confidence = map_frontier_confidence
         self.offer_frontiers = offer_frontiers
         self.frontier_open_range_m = frontier_open_range_m
         self.frontier_min_width_deg = frontier_min_width_deg
@@ -189,6 +197,9 @@ class UpdateMemory(SemExpBehaviour):
                         intrinsics=observation.intrinsics,
                         camera_to_world=observation.camera_to_world,
                     )
+                    if is_place and self._would_relabel(memory, point, label):
+                        outcomes.append(f"{label}: kept the nearby node's label")
+                        continue
                     result = memory.update(
                         position_m=tuple(float(v) for v in point),
                         label=label,
@@ -197,6 +208,9 @@ class UpdateMemory(SemExpBehaviour):
                     )
                     outcomes.append(f"{label}: {result.action}")
             memory.observe_surroundings(robot_position_m=robot_xyz)
+            local_map = self.read("local_map")
+            if local_map is not None:
+                outcomes += self._map_exploration(memory, local_map, pose)
             subgoal = self.read("subgoal")
             if subgoal is not None and subgoal.node_id in memory.graph:
                 gx, gy, _ = subgoal.position_m
@@ -204,3 +218,43 @@ class UpdateMemory(SemExpBehaviour):
                     memory.mark_visited(node_id=subgoal.node_id)
         self.feedback_message = f"{len(memory)} nodes; " + ", ".join(outcomes[:4])
         return py_trees.common.Status.SUCCESS
+
+    @staticmethod
+    def _would_relabel(memory, point, label: str) -> bool:  # type: ignore[no-untyped-def]
+        """Whether offering a place (a direction, a landmark, a frontier) at ``point`` would merge into a
+        nearby node of another label: Eq. 6 relabels a node when the newcomer is more confident, and a
+        frontier must never turn a fire-extinguisher node into "unexplored area"."""
+        nearest = memory.nearest(position_m=tuple(float(v) for v in point))
+        if nearest is None:
+            return False
+        node_id, distance = nearest
+        return distance <= memory.config.delta_d and memory.node(node_id).label != label
+
+    def _map_exploration(self, memory, local_map, pose) -> list[str]:  # type: ignore[no-untyped-def]
+        """Eq. 7 with "surroundings observed" measured on the occupancy map, plus map frontiers as nodes.
+
+        A place node (not an instructed object) whose 1 m neighbourhood the map has now mostly seen decays
+        by (1 - xi): nothing is left to discover there. And the seen/unseen boundary of the map (the
+        classic exploration frontier) is offered as "unexplored area" nodes, so the memory always holds
+        somewhere new to go while the map has unseen parts within reach.
+        """
+        notes: list[str] = []
+        xi = self.services.config.memory.xi
+        instruction = self.read("instruction")
+        robot_xy = (pose.x_m, pose.y_m, 0.0)
+        for node_id in memory.within_radius(position_m=robot_xy, radius_m=self.map_observe_radius_m):
+            state = memory.node(node_id)
+            if state.is_master or state.potential <= 0.0:
+                continue
+            if self.services.relevance.score(instruction=instruction, label=state.label) >= 0.6:
+                continue  # instructed objects keep their pull until confirmation judges them
+            if local_map.known_fraction(state.position_m[:2], radius_m=1.0) >= self.seen_fraction:
+                memory.scale_potential(node_id=node_id, factor=1.0 - xi)
+        if self.map_frontier_confidence > 0.0:
+            for x, y, cells in local_map.frontiers((pose.x_m, pose.y_m), radius_m=self.map_observe_radius_m):
+                if self._would_relabel(memory, (x, y, 0.3), FRONTIER_LABEL):
+                    continue
+                result = memory.update(position_m=(x, y, 0.3), label=FRONTIER_LABEL,
+                                       confidence=self.map_frontier_confidence, stamp_s=self.now_s())
+                notes.append(f"frontier {cells} cells: {result.action}")
+        return notes

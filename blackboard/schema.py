@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 import py_trees
 
+from semexp_bt.local_map import OccupancyMap
 from semexp_bt.memory import TopologicalMemory
 from semexp_bt.types import Detection, Observation, Pose2D, SafetyState, SceneEvidence, Subgoal, Twist
 
@@ -92,6 +93,12 @@ SCHEMA: dict[str, KeySpec] = dict(
             "the last ArbitrationResult (every candidate with its score) or None",
         ),
         _spec("target", (object,), ("Arbitrate", "ConfirmTarget"), "the last arbitrated Target or None"),
+        _spec(
+            "local_map",
+            (OccupancyMap, _NONE),
+            ("runner", "Perceive", "LocalPlan"),
+            "the occupancy map built from depth (odometry frame) that paths are planned on",
+        ),
         _spec(
             "subgoal",
             (Subgoal, _NONE),

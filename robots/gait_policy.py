@@ -47,6 +47,10 @@ ACTION_DIM = NUM_JOINTS
 #: Command ranges a navigation planner needs (vx, vy, yaw rate): commands are clipped to them.
 COMMAND_LOW = np.array([-0.5, -0.3, -1.0])
 COMMAND_HIGH = np.array([1.0, 0.3, 1.0])
+#: Command acceleration limits (vx, vy in m/s^2, yaw in rad/s^2) applied before the policy: the kinematic
+#: backend's BaseMotionLimits, so both fidelities ramp alike. A step from 1 m/s to reverse or to a stop is
+#: what made the policy fall in the benchmark; ramped, the command stays inside what training showed.
+COMMAND_ACCEL_LIMITS = np.array([2.0, 2.0, 4.0])
 #: Where the shipped checkpoint lives.
 DEFAULT_CHECKPOINT_DIR = Path(__file__).resolve().parent / "gait_checkpoints"
 WEIGHTS_FILE = "policy.npz"
@@ -199,6 +203,12 @@ def build_observation(
         ],
         axis=1,
     )
+
+
+def ramp_command(current: FloatArray, requested: FloatArray, dt_s: float = CONTROL_DT_S) -> FloatArray:
+    """Move ``current`` towards ``requested`` (both ``(N, 3)`` or ``(3,)``) within the acceleration limits."""
+    step = COMMAND_ACCEL_LIMITS * dt_s
+    return np.asarray(current, dtype=float) + np.clip(np.asarray(requested) - current, -step, step)
 
 
 @dataclass
@@ -391,8 +401,9 @@ def load_policy(directory: Path | str | None = None) -> GaitPolicy:
 class GaitController:
     """Runs a gait on a :class:`~robots.interface.Robot` every tick: ``controller(robot, twist)``.
 
-    It reads ``robot.joint_state()`` and ``robot.imu()``, keeps its own phase clock and last action, and
-    calls ``robot.command_joint_targets()``. One call = one control period (:data:`CONTROL_DT_S`).
+    It clips the twist to the command ranges and ramps it within :data:`COMMAND_ACCEL_LIMITS`, reads
+    ``robot.joint_state()`` and ``robot.imu()``, keeps its own phase clock, ramped command and last action,
+    and calls ``robot.command_joint_targets()``. One call = one control period (:data:`CONTROL_DT_S`).
     """
 
     def __init__(self, policy: GaitPolicy, *, control_dt_s: float = CONTROL_DT_S) -> None:
@@ -400,16 +411,20 @@ class GaitController:
         self.control_dt_s = control_dt_s
         self.phase = 0.0
         self.last_action = np.zeros(ACTION_DIM)
+        self.command = np.zeros(3)
         self._standing = policy.prior.standing_pose_rad
 
     def reset(self) -> None:
         self.phase = 0.0
         self.last_action = np.zeros(ACTION_DIM)
+        self.command = np.zeros(3)
 
     def __call__(self, robot: Robot, twist: Twist) -> None:
         raw = [twist.linear_x_mps, twist.linear_y_mps, twist.angular_z_radps]
         require_finite("twist", raw)
-        command = np.clip(np.asarray(raw, dtype=float), COMMAND_LOW, COMMAND_HIGH)[None, :]
+        requested = np.clip(np.asarray(raw, dtype=float), COMMAND_LOW, COMMAND_HIGH)
+        self.command = ramp_command(self.command, requested, self.control_dt_s)
+        command = self.command[None, :]
         joints = robot.joint_state()
         imu = robot.imu()
         obs = build_observation(

@@ -13,13 +13,14 @@ import py_trees
 from behaviours.services import SERVICES_KEY, MissionServices
 from behaviours.spec import BuildContext
 from blackboard.schema import fresh_board
+from semexp_bt.local_map import OccupancyMap
 from semexp_bt.memory import TopologicalMemory
 from semexp_bt.relevance import instruction_target
 from semexp_bt.types import Pose2D
 
 #: The keys the runner writes before the first tick (its rows in blackboard.schema name "runner").
 RUNNER_KEYS = ("instruction", "target_label", "instructions_left", "start_pose", "memory", "mission_outcome",
-               "found_objects", "subgoal")
+               "found_objects", "subgoal", "local_map")
 
 
 def prepare_board(
@@ -50,6 +51,7 @@ def prepare_board(
     board.mission_outcome = "running"
     board.found_objects = []
     board.subgoal = None
+    board.local_map = OccupancyMap(origin_xy=(start_pose.x_m, start_pose.y_m))
     return board
 
 

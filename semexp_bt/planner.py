@@ -122,7 +122,7 @@ class PlannerConfig:
     # --- goal handling ------------------------------------------------------------------------------
     arrival_radius_m: float = field(default=0.5, metadata=_range(0.0, 10.0))
     """Within this distance of the goal the planner stops and reports ``arrived``."""
-    standoff_arrival_radius_m: float = field(default=1.0, metadata=_range(0.0, 10.0))
+    standoff_arrival_radius_m: float = field(default=0.9, metadata=_range(0.0, 10.0))
     """A goal on or against an obstacle (a memory node back-projected onto an object's surface, a place
     next to a wall) cannot be reached within ``arrival_radius_m`` by a disc that keeps the safety margin.
     Within this distance of such a goal, when the robot cannot slide more than

@@ -30,6 +30,7 @@ from robots.gait_policy import (
     OBS_DIM,
     GaitPolicy,
     load_policy,
+    ramp_command,
 )
 from semexp_bt.types import FloatArray
 from sims.gait_env import GaitEnv, GaitEnvConfig, NoiseConfig, RandomizationConfig
@@ -80,6 +81,7 @@ class _Stats:
         self.speed_mps: list[float] = []
         self.target_rate: list[float] = []
         self.saturation: list[float] = []
+        self.height_m: list[float] = []
 
     def add(
         self,
@@ -96,6 +98,7 @@ class _Stats:
         self.power_w.extend(info["power_w"][measured])
         self.speed_mps.extend(np.linalg.norm(info["base_lin_vel_body"][:, :2], axis=1)[measured])
         self.target_rate.extend(np.mean(np.abs(target_step), axis=1)[measured] / CONTROL_DT_S)
+        self.height_m.extend(env.qpos[:, 2][measured])
         limits = env.spec.torque_limit_nm
         self.saturation.extend(np.mean(np.abs(env.torques) > 0.99 * limits, axis=1)[measured])
 
@@ -108,27 +111,42 @@ class _Stats:
             "mean_speed_mps": speed,
             "joint_target_rate_radps": float(np.mean(self.target_rate)),
             "torque_saturation_fraction": float(np.mean(self.saturation)),
+            "mean_trunk_height_m": float(np.mean(self.height_m)),
         }
 
 
-def _run(env: GaitEnv, policy: GaitPolicy, steps: int, on_step: Any = None) -> tuple[int, _Stats, FloatArray]:
+def _run(
+    env: GaitEnv, policy: GaitPolicy, steps: int, on_step: Any = None, *, ramp: bool = True
+) -> tuple[int, _Stats, FloatArray]:
     """Step ``env`` under ``policy`` for ``steps``; ``on_step(k, env)`` may change commands or push."""
     stats = _Stats()
     falls = np.zeros(env.num_envs, dtype=int)
     obs = env.observe(noisy=False)
     since_change = np.zeros(env.num_envs)
+    # The on_step hooks write the requested command into env.commands; the policy sees it ramped, as
+    # GaitController ramps it, and errors are measured against the request.
+    requested = env.commands.copy()
+    ramped = np.zeros_like(requested) if ramp else requested
     for k in range(steps):
         if on_step is not None:
+            env.commands[:] = requested
             changed = on_step(k, env)
             if changed is not None:
                 since_change[changed] = 0.0
-                obs = env.observe(noisy=False)
+            requested = env.commands.copy()
+        if ramp:
+            ramped = ramp_command(ramped, requested)
+            env.commands[:] = ramped
+            obs = env.observe(noisy=False)
+        elif on_step is not None:
+            obs = env.observe(noisy=False)
         before = env.prev_targets.copy()
         _, _, done, info = env.step(policy.actor(obs))
         obs = env.observe(noisy=False)
         since_change += CONTROL_DT_S
         falls += info["terminated"].astype(int)
         measured = (since_change > SETTLE_S) & ~done
+        env.commands[:] = requested
         stats.add(env, info, measured, env.prev_targets - before)
     return int(falls.sum()), stats, falls
 
@@ -287,6 +305,7 @@ ROWS = (
     ("cost of transport", "random_commands", "cost_of_transport", "{:.2f}"),
     ("joint-target rate (rad/s)", "random_commands", "joint_target_rate_radps", "{:.2f}"),
     ("torque saturation", "random_commands", "torque_saturation_fraction", "{:.3f}"),
+    ("mean trunk height (m)", "random_commands", "mean_trunk_height_m", "{:.3f}"),
     ("pushes recovered", "pushes", "push_recovery_rate", "{:.2f}"),
     ("inference (ms)", "inference", "inference_ms", "{:.3f}"),
     ("inference + prior (ms)", "inference", "inference_with_prior_ms", "{:.3f}"),

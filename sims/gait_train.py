@@ -439,7 +439,7 @@ def selection_score(policy_dir: Path, *, seconds: float = 5.0) -> float:
     policy = load_policy(policy_dir)
     env = _nominal_env(len(SELECTION_COMMANDS), trot_policy=policy, seed=0)
     env.commands[:] = np.array(SELECTION_COMMANDS)
-    falls, stats, _ = _run(env, policy, int(round((SETTLE_S + seconds) / 0.02)))
+    falls, stats, _ = _run(env, policy, int(round((SETTLE_S + seconds) / 0.02)), ramp=False)
     summary = stats.summary(1.0)
     return summary["lin_vel_rms_mps"] + 0.5 * summary["yaw_rate_rms_radps"] + float(falls)
 

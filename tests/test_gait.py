@@ -176,7 +176,7 @@ def test_reward_terms_on_hand_made_states() -> None:
         torques_nm=np.array([[1.0] + [0.0] * 11, [0.0] * 12, [2.0] * 12]),
         action=np.ones((n, 12)), last_action=np.zeros((n, 12)), foot_contact=contact,
         foot_velocity_xy=foot_vel, first_contact=first, air_time_s=air, joint_position_rel_rad=q_rel,
-        tracking_sigma=0.25,
+        base_height_m=np.array([0.25, 0.2, 0.3]), tracking_sigma=0.25, target_height_m=0.25,
     )  # fmt: skip
     np.testing.assert_allclose(terms["tracking_lin_vel"], [1.0, math.exp(-1.0), 1.0])
     np.testing.assert_allclose(terms["tracking_ang_vel"], [1.0, 1.0, 1.0])
@@ -189,6 +189,8 @@ def test_reward_terms_on_hand_made_states() -> None:
     # Air time rewards a 0.3 s step by 0.1 only while moving; standing still penalises joint offsets.
     np.testing.assert_allclose(terms["feet_air_time"], [0.1, 0.0, 0.0])
     np.testing.assert_allclose(terms["stand_still"], [0.0, 0.0, 0.2])
+    np.testing.assert_allclose(terms["base_height"], [0.0, 0.0025, 0.0025])
+    np.testing.assert_allclose(terms["action_magnitude"], [12.0, 12.0, 12.0])
 
 
 def test_gae_hand_worked() -> None:
