@@ -58,4 +58,5 @@ class Gait(SemExpBehaviour):
 
     def terminate(self, new_status: py_trees.common.Status) -> None:
         if new_status == py_trees.common.Status.INVALID:
-            self.services.robot.command_twist(Twist.zero())
+            # stop(), not a zero twist: with a gait policy the legs would freeze mid-stride.
+            self.services.robot.stop()

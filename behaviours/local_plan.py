@@ -63,13 +63,16 @@ def pure_pursuit(goal_base: tuple[float, float], *, max_speed_mps: float) -> Twi
     return Twist(linear_x_mps=speed, angular_z_radps=yaw_rate)
 
 
-def arc_is_clear(twist: Twist, obstacles_xy: np.ndarray, *, clearance_m: float, horizon_s: float = 1.5) -> bool:
-    """Whether the arc the twist sweeps in ``horizon_s`` stays ``clearance_m`` from every obstacle point."""
+def arc_is_clear(
+    twist: Twist, obstacles_xy: np.ndarray, *, clearance_m: float, max_length_m: float, horizon_s: float = 1.5
+) -> bool:
+    """Whether the arc the twist sweeps in ``horizon_s`` (but no farther than ``max_length_m``, the way
+    left to the aim point) stays ``clearance_m`` from every obstacle point."""
     if obstacles_xy is None or len(obstacles_xy) == 0:
         return True
     if twist.linear_x_mps <= 0.0:
         return True  # turning in place sweeps no new ground
-    length = max(twist.linear_x_mps * horizon_s, 0.3)
+    length = max(min(twist.linear_x_mps * horizon_s, max_length_m), 0.05)
     curvature = twist.angular_z_radps / twist.linear_x_mps
     samples = arc_points(curvature_1pm=curvature, arclength_m=np.linspace(0.0, length, 16))
     gaps = np.linalg.norm(samples[:, None, :] - np.asarray(obstacles_xy)[None, :, :2], axis=2)
@@ -102,7 +105,9 @@ class LocalPlan(SemExpBehaviour):
     pursuit_speed_mps = 0.6
     #: On arrival the robot turns until the subgoal is within this bearing (the camera's half view is 0.48 rad).
     facing_tolerance_rad = 0.3
-    pursuit_clearance_m = 0.33
+    pursuit_clearance_m = 0.38
+    #: A path this short whose pursuit arc is not clear counts as arrival (nothing closer is safe).
+    close_enough_m = 0.6
 
     def __init__(
         self,
@@ -174,10 +179,10 @@ class LocalPlan(SemExpBehaviour):
                     return self._arrive(
                         pose, goal_xy, f"arrived at the nearest reachable point, {math.dist(path_end, goal_xy):.2f} m away"
                     )
+                # The path ends at a cell the robot can stand on next to the subgoal: aim along it to the
+                # very end, never at the subgoal itself (which may sit on an object's surface).
                 aim = lookahead_point(path, distance_m=self.lookahead_m)
-                final_leg = remaining <= self.lookahead_m
-                if final_leg:
-                    aim = np.asarray(goal_xy)
+                final_leg = False
             elif local_map is not None:
                 if self._no_path_since is None:
                     self._no_path_since = self.now_s()
@@ -199,13 +204,18 @@ class LocalPlan(SemExpBehaviour):
                 base_pose=pose,
             )
             twist = result.twist
-            if path is not None and not final_leg:
+            if path is not None:
                 # The mapped path already keeps the robot's radius from every obstacle seen so far:
                 # follow it (pure pursuit), and let the local planner's command stand only when the
                 # pursuit arc would pass closer than the robot's radius to what the camera sees now.
                 pursuit = pure_pursuit(goal_base, max_speed_mps=self.pursuit_speed_mps)
-                if arc_is_clear(pursuit, result.obstacle_points_xy, clearance_m=self.pursuit_clearance_m):
+                if arc_is_clear(pursuit, result.obstacle_points_xy, clearance_m=self.pursuit_clearance_m,
+                                max_length_m=math.hypot(*goal_base)):
                     twist = pursuit
+                elif remaining <= self.close_enough_m:
+                    # The last few decimetres of the path would take the robot closer to what it sees now
+                    # than its clearance allows: this is as close as it safely gets.
+                    return self._arrive(pose, goal_xy, f"as close as it is safe, {remaining:.2f} m short of the path end")
         self.write("plan", result)
         self.command(twist)
         self.feedback_message = (

@@ -51,9 +51,10 @@ class OccupancyMapConfig:
     """Returns lower than this above the floor are floor."""
     obstacle_max_z_m: float = 0.6
     """Returns higher than this are overhangs the robot passes under."""
-    robot_radius_m: float = 0.38
-    """Cells closer than this to an obstacle are not traversable: the Go1's half-diagonal (its body is a
-    0.65 m x 0.30 m box, so a 0.30 m disc would let its corners clip walls on a turn)."""
+    robot_radius_m: float = 0.45
+    """Cells closer than this to an obstacle are not traversable. The Go1's half-diagonal is 0.41 m (its body
+    is a 0.65 m x 0.30 m box, so a 0.30 m disc lets its corners clip walls on a turn), and its head is 0.29 m
+    ahead of the base centre: at 0.45 m the head stays outside OASR's 0.1 m clearance."""
     unknown_cost: float = 1.5
     """Cost multiplier of crossing a never-observed cell."""
     near_obstacle_cost: float = 3.0

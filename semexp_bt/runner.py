@@ -124,7 +124,7 @@ def run_mission(options: RunOptions) -> dict[str, Any]:
             relevance=strategy.make_relevance(options.relevance),
             config=config,
             planner=DepthArcPlanner(),
-            gait=options.extra_services.get("gait"),
+            gait=_gait_for(fidelity, options.extra_services.get("gait")),
             rng=np.random.default_rng(options.seed),
             strategy=strategy.switches,
             budget_s=float(settings.budget_s or 300.0),
@@ -228,6 +228,16 @@ def _subsample_path(positions: list[np.ndarray], *, step_m: float) -> list[list[
     if positions and kept[-1] != [round(float(positions[-1][0]), 3), round(float(positions[-1][1]), 3)]:
         kept.append([round(float(positions[-1][0]), 3), round(float(positions[-1][1]), 3)])
     return kept
+
+
+def _gait_for(fidelity: str, override: Any) -> Any:
+    """The gait that realises twists: none in kinematic fidelity (the base follows the twist), the shipped
+    RL policy in dynamic fidelity (one controller per mission: it keeps its own state)."""
+    if override is not None or fidelity != "dynamic":
+        return override
+    from robots.gait_policy import make_gait_controller
+
+    return make_gait_controller()
 
 
 def _merge(base: dict[str, Any], extra: Mapping[str, Any] | None) -> dict[str, Any]:

@@ -27,6 +27,7 @@ from robots.gait_policy import (
     load_policy,
     make_gait_controller,
     projected_gravity,
+    ramp_command,
     save_policy,
 )
 from robots.go1 import load_go1_spec
@@ -279,6 +280,16 @@ def test_controller_rejects_a_nan_twist() -> None:
             make_gait_controller("reference")(robot, Twist(math.nan, 0.0, 0.0))
     finally:
         robot.close()
+
+
+def test_ramp_command_limits_acceleration() -> None:
+    # 2 m/s^2 and 4 rad/s^2 over 20 ms: at most 0.04 m/s and 0.08 rad/s per tick.
+    ramped = ramp_command(np.zeros(3), np.array([1.0, 0.01, -1.0]), 0.02)
+    np.testing.assert_allclose(ramped, [0.04, 0.01, -0.08])
+    command = np.zeros(3)
+    for _ in range(25):
+        command = ramp_command(command, np.array([1.0, 0.0, 0.0]), 0.02)
+    np.testing.assert_allclose(command, [1.0, 0.0, 0.0])
 
 
 def test_reference_gait_is_a_zero_residual() -> None:
