@@ -61,6 +61,8 @@ class MissionServices:
         events: notable events (confirmations, recoveries, guard trips) with their backend stamps.
         strategy: named switches the benchmark harness sets (e.g. ``{"decision": "utility"}``).
         budget_s: the mission's time budget (its ``budget_s`` setting), on the backend clock.
+        place_labels: labels the memory has received as unexplored directions or frontiers (places, not
+            objects); the map-based Eq. 7 decay applies to nodes with these labels only.
         privileged_goal_xy: PRIVILEGED, the true goal position ``(x, y)`` in ``map``; the runner sets it
             for the ``oracle`` strategy only (an upper bound, never a method), None otherwise.
         privileged_goal_distance: PRIVILEGED, ``(x, y) -> true geodesic distance (m)`` to the goal's
@@ -79,6 +81,7 @@ class MissionServices:
     events: list[dict[str, Any]] = field(default_factory=list)
     strategy: dict[str, str] = field(default_factory=dict)
     budget_s: float = 300.0
+    place_labels: set[str] = field(default_factory=set)
     privileged_goal_xy: tuple[float, float] | None = None
     privileged_goal_distance: Callable[[tuple[float, float]], float] | None = None
 

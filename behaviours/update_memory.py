@@ -124,8 +124,10 @@ class UpdateMemory(SemExpBehaviour):
         """(pixel, label, confidence, is_place) for t*, the other candidates and the scene's landmarks.
 
         ``is_place`` marks offers that stand for a place to go to rather than an object to reach (an
-        unexplored direction, a landmark the VLM named): their node goes ``standoff_m`` in front of
-        the surface the pixel sees, so the subgoal is somewhere the robot can stand.
+        unexplored direction, a frontier): their node goes ``standoff_m`` in front of the surface the
+        pixel sees, so the subgoal is somewhere the robot can stand. Only evidence for the instructed
+        object may relabel an existing node (Eq. 6 relabels on higher confidence): a landmark or a
+        frontier next to a fire-extinguisher node is dropped rather than renaming it.
         """
         result = self.read("arbitration")
         target = self.read("target")
@@ -156,7 +158,9 @@ class UpdateMemory(SemExpBehaviour):
             weight = place_weight
             for proposal in scene.proposals:
                 if proposal.kind == "object" and tuple(proposal.point_px) not in candidate_pixels:
-                    offers.append((proposal.point_px, proposal.label, weight, True))
+                    # An object, not a place: its node sits on it, so that a later instruction that asks
+                    # for it ("find the red trash can" after the extinguisher) leads right up to it.
+                    offers.append((proposal.point_px, proposal.label, weight, False))
         observation = self.read("observation")
         if self.offer_frontiers and observation is not None:
             # Frontiers beside the VLM's directions: the gate of Eq. 6 merges one that lands on a node the
@@ -170,6 +174,9 @@ class UpdateMemory(SemExpBehaviour):
             )
             for frontier in frontiers[: self.max_frontiers]:
                 offers.append((frontier.pixel_px, FRONTIER_LABEL, self.frontier_confidence, True))
+        self.services.place_labels.add(FRONTIER_LABEL)
+        if result is not None:
+            self.services.place_labels.update(c.label for c in result.candidates if c.kind == "direction")
         return offers
 
     def update(self) -> py_trees.common.Status:
@@ -181,7 +188,8 @@ class UpdateMemory(SemExpBehaviour):
         with self.timed("memory_update"):
             if observation is not None:
                 patch = self.services.config.arbitration.depth_patch_px
-                for pixel, label, confidence, is_place in self._offers():
+                offers = self._offers()
+                for pixel, label, confidence, is_place in offers:
                     depth = robust_depth(observation.depth_m, pixel, patch)
                     if is_place:
                         seen = self.direction_range_m if depth is None else depth
@@ -197,7 +205,7 @@ class UpdateMemory(SemExpBehaviour):
                         intrinsics=observation.intrinsics,
                         camera_to_world=observation.camera_to_world,
                     )
-                    if is_place and self._would_relabel(memory, point, label):
+                    if not self._instructed(label) and self._would_relabel(memory, point, label):
                         outcomes.append(f"{label}: kept the nearby node's label")
                         continue
                     result = memory.update(
@@ -218,6 +226,10 @@ class UpdateMemory(SemExpBehaviour):
                     memory.mark_visited(node_id=subgoal.node_id)
         self.feedback_message = f"{len(memory)} nodes; " + ", ".join(outcomes[:4])
         return py_trees.common.Status.SUCCESS
+
+    def _instructed(self, label: str) -> bool:
+        """Whether ``label`` names what the instruction asks for (only such evidence may relabel a node)."""
+        return self.services.relevance.score(instruction=self.read("instruction"), label=label) >= 0.6
 
     @staticmethod
     def _would_relabel(memory, point, label: str) -> bool:  # type: ignore[no-untyped-def]
@@ -240,14 +252,13 @@ class UpdateMemory(SemExpBehaviour):
         """
         notes: list[str] = []
         xi = self.services.config.memory.xi
-        instruction = self.read("instruction")
         robot_xy = (pose.x_m, pose.y_m, 0.0)
         for node_id in memory.within_radius(position_m=robot_xy, radius_m=self.map_observe_radius_m):
             state = memory.node(node_id)
             if state.is_master or state.potential <= 0.0:
                 continue
-            if self.services.relevance.score(instruction=instruction, label=state.label) >= 0.6:
-                continue  # instructed objects keep their pull until confirmation judges them
+            if state.label not in self.services.place_labels:
+                continue  # objects and landmarks keep their pull: a later instruction may ask for them
             if local_map.known_fraction(state.position_m[:2], radius_m=1.0) >= self.seen_fraction:
                 memory.scale_potential(node_id=node_id, factor=1.0 - xi)
         if self.map_frontier_confidence > 0.0:

@@ -212,7 +212,11 @@ def test_two_missions_in_one_process_share_no_state() -> None:
     second = make_services(empty_robot, seeing([], directions=False), budget_s=20.0)
     _, board_two = run("object_search.yaml", second, ["find the fire extinguisher"])
     assert board_two.memory is not memory_one
-    assert len(board_two.memory) == 1  # only its own master node: nothing carried over
+    # Nothing carried over: no node of the first mission (all near the origin, one a fire extinguisher)
+    # is in the second memory, whose nodes all lie around its own start at (10, 10).
+    assert all(math.hypot(n.position_m[0] - 10.0, n.position_m[1] - 10.0) < 8.0 for n in board_two.memory.nodes())
+    assert not any(n.label == "fire extinguisher" for n in board_two.memory.nodes())
+    assert board_two.local_map is not board_one.local_map
     assert board_two.found_objects == [] and board_two.mission_outcome == "budget_exceeded"
 
 
