@@ -51,10 +51,13 @@ class OccupancyMapConfig:
     """Returns lower than this above the floor are floor."""
     obstacle_max_z_m: float = 0.6
     """Returns higher than this are overhangs the robot passes under."""
-    robot_radius_m: float = 0.45
-    """Cells closer than this to an obstacle are not traversable. The Go1's half-diagonal is 0.41 m (its body
-    is a 0.65 m x 0.30 m box, so a 0.30 m disc lets its corners clip walls on a turn), and its head is 0.29 m
-    ahead of the base centre: at 0.45 m the head stays outside OASR's 0.1 m clearance."""
+    robot_radius_m: float = 0.38
+    """Cells closer than this to an obstacle are not traversable: about the Go1's half-diagonal (0.41 m; its
+    body is a 0.65 m x 0.30 m box, so a 0.30 m disc lets its corners clip walls on a turn), with the
+    discretisation of the map in mind. A door-wide gap (1.1 m) stays passable."""
+    standoff_m: float = 0.45
+    """Where a path ends next to an obstacle (a subgoal on an object) it keeps this much room: the head is
+    0.29 m ahead of the base centre, so it stays outside OASR's 0.1 m clearance."""
     unknown_cost: float = 1.5
     """Cost multiplier of crossing a never-observed cell."""
     near_obstacle_cost: float = 3.0
@@ -237,7 +240,7 @@ class OccupancyMap:
         centres_y = self._lower[1] + (np.arange(lo[1], hi[1]) + 0.5) * res
         gap = np.hypot(centres_x[:, None] - goal_xy[0], centres_y[None, :] - goal_xy[1])
         reach = dist.reshape(shape)
-        candidates = (gap <= cfg.goal_tolerance_m) & np.isfinite(reach) & passable
+        candidates = (gap <= cfg.goal_tolerance_m) & np.isfinite(reach) & passable & (clearance >= cfg.standoff_m)
         if not candidates.any():
             return None
         score = np.where(candidates, gap * 4.0 + reach * 0.25, np.inf)
