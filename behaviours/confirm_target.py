@@ -14,7 +14,7 @@ fooled the detector once is not trusted twice).
 Example:
     - type: ConfirmTarget
       name: Confirm
-      params: {confirm_radius_m: 1.0, extra_views: 1, min_fused_confidence: 0.3}
+      params: {confirm_radius_m: 1.0, extra_views: 2, min_fused_confidence: 0.3}
 """
 
 from __future__ import annotations
@@ -64,7 +64,7 @@ class ConfirmTarget(SemExpBehaviour):
             default=0.3, ge=0.0, le=1.0,
         ),
         "extra_views": ParamSpec(
-            "int", doc="further views that must agree before success", default=1, ge=0, le=10
+            "int", doc="further views that must agree before success", default=2, ge=0, le=10
         ),
         "consistency_radius_m": ParamSpec(
             "float", doc="agreeing views place the target within this distance, m", default=0.8, gt=0.0
@@ -96,7 +96,7 @@ class ConfirmTarget(SemExpBehaviour):
         confirm_radius_m: float = 1.0,
         min_score: float = 0.1,
         min_fused_confidence: float = 0.3,
-        extra_views: int = 1,
+        extra_views: int = 2,
         consistency_radius_m: float = 0.8,
         align_threshold: float = 0.9,
         reject_potential_factor: float = 0.2,

@@ -47,11 +47,14 @@ class NullRobot(Robot):
         start_pose: Pose2D,
         posts: tuple[tuple[int, float, float, float, float], ...] = (),
         max_depth_m: float = 10.0,
+        render_once: bool = False,
     ) -> None:
         """Args:
         start_pose: the initial base pose.
         posts: ``(object_id, x_m, y_m, radius_m, height_m)`` vertical cylinders standing on the floor.
         max_depth_m: farther returns read 0 (no return), as on a D435i.
+        render_once: ray-cast the first frame only and return it ever after (to time the executive
+            without any rendering cost; the images then ignore the pose).
         """
         self._pose = start_pose
         self._twist = Twist.zero()
@@ -60,6 +63,8 @@ class NullRobot(Robot):
             width_px=IMAGE_WIDTH_PX, height_px=IMAGE_HEIGHT_PX, vertical_fov_deg=VERTICAL_FOV_DEG
         )
         self.posts = tuple(posts)
+        self.render_once = render_once
+        self._frame: tuple[npt.NDArray[np.float32], npt.NDArray[np.int32]] | None = None
         self.max_depth_m = max_depth_m
         self.joint_targets = np.zeros(12)
         self.stopped = 0
@@ -119,7 +124,9 @@ class NullRobot(Robot):
         return out
 
     def observe(self) -> Observation:
-        depth, seg = self.render()
+        if self._frame is None or not self.render_once:
+            self._frame = self.render()
+        depth, seg = self._frame
         return Observation(
             rgb=np.zeros((IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, 3), dtype=np.uint8),
             depth_m=depth,

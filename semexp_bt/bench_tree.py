@@ -5,9 +5,11 @@ with a synthetic open-floor depth image) and :class:`sims.scripted_perception.Sc
 answer after 2.5 s of backend time: two unexplored directions, and after some views a detection of the
 target straight ahead). Two configurations are timed:
 
-- ``tree``: the local planner replaced by a pure-pursuit stand-in that costs microseconds, so the figure
-  is py_trees plus our behaviours plus the paper's arbitration, memory and decision maths;
-- ``tree+planner``: the real depth-arc planner at 12 Hz on the synthetic depth image.
+- ``tree``: the local planner replaced by a pure-pursuit stand-in that costs microseconds, no occupancy
+  map, and a camera that returns one pre-rendered frame, so the figure is py_trees plus our behaviours
+  plus the paper's arbitration, memory and decision maths;
+- ``tree+navigation``: the real depth-arc planner at 12 Hz, the occupancy map (integration of every
+  frame, a path once a second, frontiers) and the NullRobot's ray-cast camera.
 
 For each, per-tick time of ``tree.tick()`` (the robot's ``advance`` is not timed) is reported as median,
 p99 and max over ``ticks`` ticks, seeded and deterministic in its sequence of events: wall time, and the
@@ -73,15 +75,17 @@ def _script() -> list[Any]:
     return [directions] * 8 + [target_ahead] * 4
 
 
-def time_ticks(*, planner: Any, ticks: int, seed: int) -> dict[str, float]:
-    robot = NullRobot(start_pose=Pose2D(0.0, 0.0, 0.0))
+def time_ticks(*, planner: Any, ticks: int, seed: int, navigation: bool) -> dict[str, float]:
+    robot = NullRobot(start_pose=Pose2D(0.0, 0.0, 0.0), render_once=not navigation)
     config = SemExpConfig()
     services = MissionServices(
         robot=robot, perception=ScriptedPerception(_script()), relevance=CachedRelevance(LexicalRelevance()),
         config=config, planner=planner, rng=np.random.default_rng(seed), budget_s=1e9,
     )
-    prepare_board(instructions=["find the fire extinguisher"], start_pose=robot.base_pose(),
-                  memory=TopologicalMemory(config.memory))
+    board = prepare_board(instructions=["find the fire extinguisher"], start_pose=robot.base_pose(),
+                          memory=TopologicalMemory(config.memory))
+    if not navigation:
+        board.local_map = None
     tree = build_tree(mission_path=MISSION, services=services)
     tree.setup()
     samples = np.empty(ticks)
@@ -94,8 +98,10 @@ def time_ticks(*, planner: Any, ticks: int, seed: int) -> dict[str, float]:
         cpu[i] = time.thread_time() - c0
         if tree.root.status.name != "RUNNING":  # the mission ended: start it again, as a long run would
             restarts += 1
-            prepare_board(instructions=["find the fire extinguisher"], start_pose=robot.base_pose(),
-                          memory=TopologicalMemory(config.memory))
+            board = prepare_board(instructions=["find the fire extinguisher"], start_pose=robot.base_pose(),
+                                  memory=TopologicalMemory(config.memory))
+            if not navigation:
+                board.local_map = None
             tree = build_tree(mission_path=MISSION, services=services)
             tree.setup()
         robot.advance(TICK_PERIOD_S)
@@ -107,8 +113,8 @@ def time_ticks(*, planner: Any, ticks: int, seed: int) -> dict[str, float]:
 
 def run_tree_bench(*, ticks: int = 20_000, seed: int = 0) -> dict[str, Any]:
     rows = {
-        "tree": time_ticks(planner=PurePursuitStandIn(), ticks=ticks, seed=seed),
-        "tree+planner": time_ticks(planner=DepthArcPlanner(), ticks=ticks, seed=seed),
+        "tree": time_ticks(planner=PurePursuitStandIn(), ticks=ticks, seed=seed, navigation=False),
+        "tree+navigation": time_ticks(planner=DepthArcPlanner(), ticks=ticks, seed=seed, navigation=True),
     }
     return {
         "seed": seed,

@@ -205,7 +205,7 @@ def test_two_missions_in_one_process_share_no_state() -> None:
     first_robot = NullRobot(start_pose=Pose2D(0.0, 0.0, 0.0), posts=((1, 3.0, 0.0, 0.2, 0.6),))
     first = make_services(first_robot, seeing([target]))
     _, board_one = run("object_search.yaml", first, ["find the fire extinguisher"])
-    memory_one = board_one.memory
+    memory_one, map_one = board_one.memory, board_one.local_map  # the board is process-wide: keep the objects
     assert board_one.mission_outcome == "success" and len(memory_one) > 1
 
     empty_robot = NullRobot(start_pose=Pose2D(10.0, 10.0, 0.0))
@@ -216,7 +216,11 @@ def test_two_missions_in_one_process_share_no_state() -> None:
     # is in the second memory, whose nodes all lie around its own start at (10, 10).
     assert all(math.hypot(n.position_m[0] - 10.0, n.position_m[1] - 10.0) < 8.0 for n in board_two.memory.nodes())
     assert not any(n.label == "fire extinguisher" for n in board_two.memory.nodes())
-    assert board_two.local_map is not board_one.local_map
+    map_two = board_two.local_map
+    assert map_two is not map_one and map_two.origin_xy == (10.0, 10.0)
+    post_cell = tuple(map_two.cell_of(np.array([3.0, 0.0])))
+    assert map_one.hits[tuple(map_one.cell_of(np.array([2.85, 0.0])))] > 0  # the first map saw the post ...
+    assert map_two.hits[post_cell] == 0  # ... the second map has never seen it
     assert board_two.found_objects == [] and board_two.mission_outcome == "budget_exceeded"
 
 
