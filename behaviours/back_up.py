@@ -72,7 +72,10 @@ class BackUp(SemExpBehaviour):
         best, best_room = math.pi, -1.0
         for heading in ESCAPE_HEADINGS_RAD:
             world = pose.yaw_rad + heading
-            probe = [pose.x_m + self.distance_m * math.cos(world), pose.y_m + self.distance_m * math.sin(world)]
+            probe = [
+                pose.x_m + self.distance_m * math.cos(world),
+                pose.y_m + self.distance_m * math.sin(world),
+            ]
             room = local_map.clearance_at(probe)
             if room > best_room + 1e-6:
                 best, best_room = heading, room
@@ -86,8 +89,12 @@ class BackUp(SemExpBehaviour):
             self.command(Twist.zero())
             self.feedback_message = f"backed up {moved:.2f} m"
             return py_trees.common.Status.SUCCESS
-        self.command(Twist(linear_x_mps=self.speed_mps * math.cos(self._heading),
-                           linear_y_mps=self.speed_mps * math.sin(self._heading)))
+        self.command(
+            Twist(
+                linear_x_mps=self.speed_mps * math.cos(self._heading),
+                linear_y_mps=self.speed_mps * math.sin(self._heading),
+            )
+        )
         return py_trees.common.Status.RUNNING
 
     def terminate(self, new_status: py_trees.common.Status) -> None:

@@ -40,8 +40,11 @@ class SemExpBehaviour(py_trees.behaviour.Behaviour):
         super().__init_subclass__(**kwargs)
         keys: dict[str, BlackboardKey] = {}
         for key in dict.fromkeys((*cls.READS, *cls.WRITES)):
-            access = "read_write" if key in cls.READS and key in cls.WRITES else (
-                "write" if key in cls.WRITES else "read")
+            access = (
+                "read_write"
+                if key in cls.READS and key in cls.WRITES
+                else ("write" if key in cls.WRITES else "read")
+            )
             keys[key] = BlackboardKey(access, doc=SCHEMA[key].doc)  # type: ignore[arg-type]
         cls.BLACKBOARD_KEYS = keys
 

@@ -59,9 +59,12 @@ class ConfirmTarget(SemExpBehaviour):
             le=1.0,
         ),
         "min_fused_confidence": ParamSpec(
-            "float", doc="least fused confidence C_f of a confirming view (C_f is shared with the view's "
+            "float",
+            doc="least fused confidence C_f of a confirming view (C_f is shared with the view's "
             "direction candidates, so it is a relative check; min_score is the absolute one)",
-            default=0.3, ge=0.0, le=1.0,
+            default=0.3,
+            ge=0.0,
+            le=1.0,
         ),
         "extra_views": ParamSpec(
             "int", doc="further views that must agree before success", default=2, ge=0, le=10

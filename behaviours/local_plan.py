@@ -96,8 +96,10 @@ class LocalPlan(SemExpBehaviour):
             "float", doc="the local planner aims at the path point this far ahead, m", default=1.2, gt=0.0
         ),
         "no_path_timeout_s": ParamSpec(
-            "float", doc="FAILURE when the map has had no path to the subgoal for this long, s",
-            default=4.0, gt=0.0,
+            "float",
+            doc="FAILURE when the map has had no path to the subgoal for this long, s",
+            default=4.0,
+            gt=0.0,
         ),
     }
 
@@ -139,7 +141,9 @@ class LocalPlan(SemExpBehaviour):
         self._planned_at = -math.inf
         self._no_path_since = None
 
-    def _global_path(self, pose: Pose2D, goal_xy: tuple[float, float], subgoal_key: tuple) -> np.ndarray | None:
+    def _global_path(
+        self, pose: Pose2D, goal_xy: tuple[float, float], subgoal_key: tuple
+    ) -> np.ndarray | None:
         """The occupancy-map path to the subgoal, recomputed every ``replan_period_s`` or on a new subgoal."""
         local_map = self.read("local_map")
         if local_map is None:
@@ -174,10 +178,14 @@ class LocalPlan(SemExpBehaviour):
             if path is not None:
                 self._no_path_since = None
                 path_end = path[-1]
-                remaining = float(np.linalg.norm(np.diff(path, axis=0), axis=1).sum()) if len(path) > 1 else 0.0
+                remaining = (
+                    float(np.linalg.norm(np.diff(path, axis=0), axis=1).sum()) if len(path) > 1 else 0.0
+                )
                 if remaining <= 0.15:
                     return self._arrive(
-                        pose, goal_xy, f"arrived at the nearest reachable point, {math.dist(path_end, goal_xy):.2f} m away"
+                        pose,
+                        goal_xy,
+                        f"arrived at the nearest reachable point, {math.dist(path_end, goal_xy):.2f} m away",
                     )
                 # The path ends at a cell the robot can stand on next to the subgoal: aim along it to the
                 # very end, never at the subgoal itself (which may sit on an object's surface).
@@ -209,13 +217,19 @@ class LocalPlan(SemExpBehaviour):
                 # follow it (pure pursuit), and let the local planner's command stand only when the
                 # pursuit arc would pass closer than the robot's radius to what the camera sees now.
                 pursuit = pure_pursuit(goal_base, max_speed_mps=self.pursuit_speed_mps)
-                if arc_is_clear(pursuit, result.obstacle_points_xy, clearance_m=self.pursuit_clearance_m,
-                                max_length_m=math.hypot(*goal_base)):
+                if arc_is_clear(
+                    pursuit,
+                    result.obstacle_points_xy,
+                    clearance_m=self.pursuit_clearance_m,
+                    max_length_m=math.hypot(*goal_base),
+                ):
                     twist = pursuit
                 elif remaining <= self.close_enough_m:
                     # The last few decimetres of the path would take the robot closer to what it sees now
                     # than its clearance allows: this is as close as it safely gets.
-                    return self._arrive(pose, goal_xy, f"as close as it is safe, {remaining:.2f} m short of the path end")
+                    return self._arrive(
+                        pose, goal_xy, f"as close as it is safe, {remaining:.2f} m short of the path end"
+                    )
         self.write("plan", result)
         self.command(twist)
         self.feedback_message = (
@@ -235,9 +249,13 @@ class LocalPlan(SemExpBehaviour):
 
     def _arrive(self, pose: Pose2D, goal_xy: tuple[float, float], note: str) -> py_trees.common.Status:
         """Arrival: turn in place to face the subgoal first, so the next perception looks at it."""
-        bearing = math.remainder(math.atan2(goal_xy[1] - pose.y_m, goal_xy[0] - pose.x_m) - pose.yaw_rad, math.tau)
+        bearing = math.remainder(
+            math.atan2(goal_xy[1] - pose.y_m, goal_xy[0] - pose.x_m) - pose.yaw_rad, math.tau
+        )
         if abs(bearing) > self.facing_tolerance_rad:
-            self.command(Twist(angular_z_radps=math.copysign(max(0.3, min(0.8, 1.5 * abs(bearing))), bearing)))
+            self.command(
+                Twist(angular_z_radps=math.copysign(max(0.3, min(0.8, 1.5 * abs(bearing))), bearing))
+            )
             self.feedback_message = f"{note}; turning to face the subgoal ({math.degrees(bearing):.0f} deg)"
             return py_trees.common.Status.RUNNING
         self.command(Twist.zero())

@@ -24,8 +24,10 @@ class MissionBudgetGuard(SemExpBehaviour):
     WRITES = ("mission_outcome",)
     PARAMS = {
         "budget_s": ParamSpec(
-            "float", doc="mission time budget on the backend clock, s (0: the mission's budget_s setting)",
-            default=0.0, ge=0.0,
+            "float",
+            doc="mission time budget on the backend clock, s (0: the mission's budget_s setting)",
+            default=0.0,
+            ge=0.0,
         ),
     }
 

@@ -81,8 +81,11 @@ class UpdateMemory(SemExpBehaviour):
         ),
         "max_frontiers": ParamSpec("int", doc="at most this many frontiers per view", default=2, ge=0),
         "map_frontier_confidence": ParamSpec(
-            "float", doc="confidence of a node at an occupancy-map frontier (0: no map frontiers)",
-            default=0.6, ge=0.0, le=1.0,
+            "float",
+            doc="confidence of a node at an occupancy-map frontier (0: no map frontiers)",
+            default=0.6,
+            ge=0.0,
+            le=1.0,
         ),
     }
 
@@ -265,7 +268,11 @@ class UpdateMemory(SemExpBehaviour):
             for x, y, cells in local_map.frontiers((pose.x_m, pose.y_m), radius_m=self.map_observe_radius_m):
                 if self._would_relabel(memory, (x, y, 0.3), FRONTIER_LABEL):
                     continue
-                result = memory.update(position_m=(x, y, 0.3), label=FRONTIER_LABEL,
-                                       confidence=self.map_frontier_confidence, stamp_s=self.now_s())
+                result = memory.update(
+                    position_m=(x, y, 0.3),
+                    label=FRONTIER_LABEL,
+                    confidence=self.map_frontier_confidence,
+                    stamp_s=self.now_s(),
+                )
                 notes.append(f"frontier {cells} cells: {result.action}")
         return notes

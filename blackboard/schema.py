@@ -84,8 +84,12 @@ SCHEMA: dict[str, KeySpec] = dict(
         _spec(
             "scene_evidence", (SceneEvidence, _NONE), ("Perceive", "ConfirmTarget"), "the VLM's last reply"
         ),
-        _spec("detections", (tuple, _NONE), ("Perceive", "ConfirmTarget"),
-              "the detector's last detections (None: the object-level source is missing)"),
+        _spec(
+            "detections",
+            (tuple, _NONE),
+            ("Perceive", "ConfirmTarget"),
+            "the detector's last detections (None: the object-level source is missing)",
+        ),
         _spec(
             "arbitration",
             (object,),

@@ -391,7 +391,9 @@ class MujocoRobot(Robot):
         self._base_accel = (velocity - previous_velocity) / dt_s
         self._base_velocity = velocity
         self.data.time += dt_s
-        self._check_safety({oid: d for oid, d in refused.items() if d <= 0.0} if refused is not None else None)
+        self._check_safety(
+            {oid: d for oid, d in refused.items() if d <= 0.0} if refused is not None else None
+        )
 
     def _dynamic_step(self, dt_s: float) -> None:
         self.data.ctrl[:] = self._joint_targets

@@ -70,8 +70,14 @@ class NullRobot(Robot):
         self.stopped = 0
         u, v = np.meshgrid(np.arange(IMAGE_WIDTH_PX, dtype=float), np.arange(IMAGE_HEIGHT_PX, dtype=float))
         # Optical-frame ray directions with unit z (so the ray parameter is the depth along the axis).
-        self._rays = np.stack([(u - self.intrinsics.cx_px) / self.intrinsics.fx_px,
-                               (v - self.intrinsics.cy_px) / self.intrinsics.fy_px, np.ones_like(u)], axis=-1)
+        self._rays = np.stack(
+            [
+                (u - self.intrinsics.cx_px) / self.intrinsics.fx_px,
+                (v - self.intrinsics.cy_px) / self.intrinsics.fy_px,
+                np.ones_like(u),
+            ],
+            axis=-1,
+        )
 
     def render(self) -> tuple[npt.NDArray[np.float32], npt.NDArray[np.int32]]:
         """Depth (m along the optical axis, 0 = no return) and segmentation of the analytic world."""
@@ -89,7 +95,9 @@ class NullRobot(Robot):
             c = ox * ox + oy * oy - radius * radius
             disc = b * b - 4.0 * a * c
             hit = (disc >= 0.0) & (a > 1e-12)
-            root = np.where(hit, (-b - np.sqrt(np.where(hit, disc, 0.0))) / (2.0 * np.where(hit, a, 1.0)), np.inf)
+            root = np.where(
+                hit, (-b - np.sqrt(np.where(hit, disc, 0.0))) / (2.0 * np.where(hit, a, 1.0)), np.inf
+            )
             z = origin[2] + root * dirs[..., 2]
             hit &= (root > 0.0) & (z >= 0.0) & (z <= height) & (root < depth)
             depth[hit] = root[hit]
@@ -150,7 +158,9 @@ class NullRobot(Robot):
         return ImuReading(
             angular_velocity_radps=np.array([0.0, 0.0, self._twist.angular_z_radps]),
             linear_acceleration_mps2=np.array([0.0, 0.0, 9.81]),
-            orientation_wxyz=np.array([math.cos(self._pose.yaw_rad / 2), 0.0, 0.0, math.sin(self._pose.yaw_rad / 2)]),
+            orientation_wxyz=np.array(
+                [math.cos(self._pose.yaw_rad / 2), 0.0, 0.0, math.sin(self._pose.yaw_rad / 2)]
+            ),
         )
 
     # --- commands --------------------------------------------------------------------------------------

@@ -233,11 +233,16 @@ def markdown_table(result: dict) -> str:
         f"{machine['load_average_1m_at_end']:.1f} at the end; renderer: {result['render']['default']['gl_renderer']}."
     )
     if "catalogue" in result:
-        lines += ["", "| scene | objects | idle RTF kinematic | idle RTF dynamic | observe() ms |",
-                  "| --- | ---: | ---: | ---: | ---: |"]
+        lines += [
+            "",
+            "| scene | objects | idle RTF kinematic | idle RTF dynamic | observe() ms |",
+            "| --- | ---: | ---: | ---: | ---: |",
+        ]
         for name, row in result["catalogue"].items():
-            lines.append(f"| {name} | {row['objects']:.0f} | {row['kinematic_idle_rtf']:.0f} | "
-                         f"{row['dynamic_idle_rtf']:.1f} | {row['observe_ms']:.1f} |")
+            lines.append(
+                f"| {name} | {row['objects']:.0f} | {row['kinematic_idle_rtf']:.0f} | "
+                f"{row['dynamic_idle_rtf']:.1f} | {row['observe_ms']:.1f} |"
+            )
     return "\n".join(lines)
 
 

@@ -75,7 +75,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     core.add_argument("--seed", type=int, default=0)
     core.add_argument("--quick", action="store_true", help="fewer repeats, no 100k-node row (smoke test)")
 
-    tree = sub.add_parser("tree", help="per-tick wall time of the mission tree alone (no physics, no rendering)")
+    tree = sub.add_parser(
+        "tree", help="per-tick wall time of the mission tree alone (no physics, no rendering)"
+    )
     tree.add_argument("--json", type=Path, default=None, help="write the figures here as JSON")
     tree.add_argument("--ticks", type=int, default=20_000)
     tree.add_argument("--seed", type=int, default=0)

@@ -51,18 +51,30 @@ def bench_arbitration(*, seed: int, repeats: int) -> dict[str, float]:
     inputs = []
     for _ in range(16):
         proposals = tuple(
-            SceneProposal(point_px=(float(rng.uniform(0, _WIDTH)), float(rng.uniform(0, _HEIGHT))),
-                          label=str(rng.choice(_LABELS)), kind="direction" if rng.random() < 0.3 else "object")
+            SceneProposal(
+                point_px=(float(rng.uniform(0, _WIDTH)), float(rng.uniform(0, _HEIGHT))),
+                label=str(rng.choice(_LABELS)),
+                kind="direction" if rng.random() < 0.3 else "object",
+            )
             for _ in range(20)
         )
         detections = []
         for _ in range(50):
             u0, v0 = rng.uniform(0, _WIDTH - 40), rng.uniform(0, _HEIGHT - 40)
             w, h = rng.uniform(5, 40), rng.uniform(5, 40)
-            detections.append(Detection((float(u0), float(v0), float(u0 + w), float(v0 + h)),
-                                        str(rng.choice(_LABELS)), float(rng.uniform(0, 1))))
-        inputs.append((SceneEvidence(proposals=proposals, scene_confidence=float(rng.uniform(0.3, 1.0))),
-                       tuple(detections)))
+            detections.append(
+                Detection(
+                    (float(u0), float(v0), float(u0 + w), float(v0 + h)),
+                    str(rng.choice(_LABELS)),
+                    float(rng.uniform(0, 1)),
+                )
+            )
+        inputs.append(
+            (
+                SceneEvidence(proposals=proposals, scene_confidence=float(rng.uniform(0.3, 1.0))),
+                tuple(detections),
+            )
+        )
     config = ArbitrationConfig()
 
     def aligned(label: str) -> bool:
@@ -91,8 +103,12 @@ def _filled_memory(n_nodes: int, rng: np.random.Generator) -> tuple[TopologicalM
                 break
             if i == 0 and j == 0:
                 continue
-            memory.update(position_m=(i * spacing, j * spacing, 0.5), label=str(rng.choice(_LABELS)),
-                          confidence=float(rng.uniform(0.5, 1.0)), stamp_s=float(count))
+            memory.update(
+                position_m=(i * spacing, j * spacing, 0.5),
+                label=str(rng.choice(_LABELS)),
+                confidence=float(rng.uniform(0.5, 1.0)),
+                stamp_s=float(count),
+            )
             count += 1
     return memory, side_count * spacing
 
@@ -105,8 +121,12 @@ def bench_memory(*, n_nodes: int, seed: int, repeats: int) -> dict[str, float]:
     conf = rng.uniform(0.0, 1.0, size=repeats)
 
     def call(i: int) -> None:
-        memory.update(position_m=(float(points[i, 0]), float(points[i, 1]), 0.5), label=str(labels[i]),
-                      confidence=float(conf[i]), stamp_s=1e6 + i)
+        memory.update(
+            position_m=(float(points[i, 0]), float(points[i, 1]), 0.5),
+            label=str(labels[i]),
+            confidence=float(conf[i]),
+            stamp_s=1e6 + i,
+        )
 
     out = _time_calls(call, repeats)
     out["nodes_after"] = len(memory)
@@ -122,7 +142,9 @@ def bench_decision(*, n_candidates: int, seed: int, repeats: int, with_travel: b
     nodes = memory.nodes()
     robot = (side / 2, side / 2, 0.0)
     costs = memory.travel_costs(from_position_m=robot, mode="graph")
-    decide(nodes=nodes, instruction=instruction, relevance=relevance, travel_costs=costs, config=config)  # warm
+    decide(
+        nodes=nodes, instruction=instruction, relevance=relevance, travel_costs=costs, config=config
+    )  # warm
 
     def call(_: int) -> None:
         c = memory.travel_costs(from_position_m=robot, mode="graph") if with_travel else costs
@@ -140,14 +162,20 @@ def run_core_bench(*, seed: int = 0, quick: bool = False) -> dict[str, Any]:
     for n in (100, 1000, 10_000) + (() if quick else (100_000,)):
         rows[f"memory_update@{n}"] = bench_memory(n_nodes=n, seed=seed, repeats=reps)
     for n in (100, 1000, 10_000):
-        rows[f"decide@{n}"] = bench_decision(n_candidates=n, seed=seed, repeats=max(20, reps // 5), with_travel=False)
-        rows[f"decide+travel@{n}"] = bench_decision(n_candidates=n, seed=seed, repeats=max(20, reps // 5),
-                                                    with_travel=True)
+        rows[f"decide@{n}"] = bench_decision(
+            n_candidates=n, seed=seed, repeats=max(20, reps // 5), with_travel=False
+        )
+        rows[f"decide+travel@{n}"] = bench_decision(
+            n_candidates=n, seed=seed, repeats=max(20, reps // 5), with_travel=True
+        )
     return {
         "seed": seed,
         "quick": quick,
-        "machine": {"platform": platform.platform(), "processor": platform.processor() or platform.machine(),
-                    "python": platform.python_version()},
+        "machine": {
+            "platform": platform.platform(),
+            "processor": platform.processor() or platform.machine(),
+            "python": platform.python_version(),
+        },
         "floors_ms": FLOORS_MS,
         "rows": rows,
         "floors_met": {k: rows[k]["median_ms"] < v for k, v in FLOORS_MS.items()},

@@ -50,10 +50,22 @@ class PurePursuitStandIn:
         distance = math.hypot(*goal_base_xy)
         bearing = math.atan2(goal_base_xy[1], goal_base_xy[0])
         if distance < 0.5:
-            return PlanResult(Twist.zero(), "arrived", math.inf, 0.0, 0.0, 0.0, distance, bearing, {}, np.zeros((0, 2)))
+            return PlanResult(
+                Twist.zero(), "arrived", math.inf, 0.0, 0.0, 0.0, distance, bearing, {}, np.zeros((0, 2))
+            )
         v = 0.5 if abs(bearing) < 0.5 else 0.0
-        return PlanResult(Twist(v, 0.0, max(-1.0, min(1.0, 1.5 * bearing))), "tracking", math.inf, 0.0, v, 0.0,
-                          distance, bearing, {}, np.zeros((0, 2)))
+        return PlanResult(
+            Twist(v, 0.0, max(-1.0, min(1.0, 1.5 * bearing))),
+            "tracking",
+            math.inf,
+            0.0,
+            v,
+            0.0,
+            distance,
+            bearing,
+            {},
+            np.zeros((0, 2)),
+        )
 
     def reset(self) -> None:
         return None
@@ -62,15 +74,24 @@ class PurePursuitStandIn:
 def _script() -> list[Any]:
     def directions(observation: Observation) -> PerceptionResult:
         return PerceptionResult(
-            scene=SceneEvidence((SceneProposal((60.0, 150.0), "open corridor", "direction"),
-                                 SceneProposal((260.0, 150.0), "doorway", "direction")), 0.8),
-            detections=(), observation_stamp_s=observation.stamp_s)
+            scene=SceneEvidence(
+                (
+                    SceneProposal((60.0, 150.0), "open corridor", "direction"),
+                    SceneProposal((260.0, 150.0), "doorway", "direction"),
+                ),
+                0.8,
+            ),
+            detections=(),
+            observation_stamp_s=observation.stamp_s,
+        )
 
     def target_ahead(observation: Observation) -> PerceptionResult:
         box = (140.0, 140.0, 180.0, 200.0)
         return PerceptionResult(
             scene=SceneEvidence((SceneProposal((160.0, 170.0), "fire extinguisher", "object"),), 0.9),
-            detections=(Detection(box, "fire extinguisher", 0.9),), observation_stamp_s=observation.stamp_s)
+            detections=(Detection(box, "fire extinguisher", 0.9),),
+            observation_stamp_s=observation.stamp_s,
+        )
 
     return [directions] * 8 + [target_ahead] * 4
 
@@ -79,11 +100,19 @@ def time_ticks(*, planner: Any, ticks: int, seed: int, navigation: bool) -> dict
     robot = NullRobot(start_pose=Pose2D(0.0, 0.0, 0.0), render_once=not navigation)
     config = SemExpConfig()
     services = MissionServices(
-        robot=robot, perception=ScriptedPerception(_script()), relevance=CachedRelevance(LexicalRelevance()),
-        config=config, planner=planner, rng=np.random.default_rng(seed), budget_s=1e9,
+        robot=robot,
+        perception=ScriptedPerception(_script()),
+        relevance=CachedRelevance(LexicalRelevance()),
+        config=config,
+        planner=planner,
+        rng=np.random.default_rng(seed),
+        budget_s=1e9,
     )
-    board = prepare_board(instructions=["find the fire extinguisher"], start_pose=robot.base_pose(),
-                          memory=TopologicalMemory(config.memory))
+    board = prepare_board(
+        instructions=["find the fire extinguisher"],
+        start_pose=robot.base_pose(),
+        memory=TopologicalMemory(config.memory),
+    )
     if not navigation:
         board.local_map = None
     tree = build_tree(mission_path=MISSION, services=services)
@@ -98,17 +127,27 @@ def time_ticks(*, planner: Any, ticks: int, seed: int, navigation: bool) -> dict
         cpu[i] = time.thread_time() - c0
         if tree.root.status.name != "RUNNING":  # the mission ended: start it again, as a long run would
             restarts += 1
-            board = prepare_board(instructions=["find the fire extinguisher"], start_pose=robot.base_pose(),
-                                  memory=TopologicalMemory(config.memory))
+            board = prepare_board(
+                instructions=["find the fire extinguisher"],
+                start_pose=robot.base_pose(),
+                memory=TopologicalMemory(config.memory),
+            )
             if not navigation:
                 board.local_map = None
             tree = build_tree(mission_path=MISSION, services=services)
             tree.setup()
         robot.advance(TICK_PERIOD_S)
     ms, cpu_ms = samples * 1e3, cpu * 1e3
-    return {"median_ms": float(np.median(ms)), "p99_ms": float(np.percentile(ms, 99)), "max_ms": float(ms.max()),
-            "cpu_median_ms": float(np.median(cpu_ms)), "cpu_p99_ms": float(np.percentile(cpu_ms, 99)),
-            "ticks": ticks, "missions_completed": restarts, "decisions": len(services.decision_log)}
+    return {
+        "median_ms": float(np.median(ms)),
+        "p99_ms": float(np.percentile(ms, 99)),
+        "max_ms": float(ms.max()),
+        "cpu_median_ms": float(np.median(cpu_ms)),
+        "cpu_p99_ms": float(np.percentile(cpu_ms, 99)),
+        "ticks": ticks,
+        "missions_completed": restarts,
+        "decisions": len(services.decision_log),
+    }
 
 
 def run_tree_bench(*, ticks: int = 20_000, seed: int = 0) -> dict[str, Any]:
@@ -121,16 +160,22 @@ def run_tree_bench(*, ticks: int = 20_000, seed: int = 0) -> dict[str, Any]:
         "machine": {"platform": platform.platform(), "python": platform.python_version()},
         "floor_ms": FLOOR_MS,
         "rows": rows,
-        "floors_met": {"tree median": rows["tree"]["median_ms"] < FLOOR_MS,
-                       "tree p99 (cpu)": rows["tree"]["cpu_p99_ms"] < FLOOR_MS},
+        "floors_met": {
+            "tree median": rows["tree"]["median_ms"] < FLOOR_MS,
+            "tree p99 (cpu)": rows["tree"]["cpu_p99_ms"] < FLOOR_MS,
+        },
     }
 
 
 def format_table(result: dict[str, Any]) -> str:
-    lines = ["| configuration | wall median ms | wall p99 ms | cpu median ms | cpu p99 ms | ticks | decisions |",
-             "|---|---:|---:|---:|---:|---:|---:|"]
+    lines = [
+        "| configuration | wall median ms | wall p99 ms | cpu median ms | cpu p99 ms | ticks | decisions |",
+        "|---|---:|---:|---:|---:|---:|---:|",
+    ]
     for name, row in result["rows"].items():
-        lines.append(f"| {name} | {row['median_ms']:.3f} | {row['p99_ms']:.3f} | {row['cpu_median_ms']:.3f} | "
-                     f"{row['cpu_p99_ms']:.3f} | {row['ticks']} | {row['decisions']} |")
+        lines.append(
+            f"| {name} | {row['median_ms']:.3f} | {row['p99_ms']:.3f} | {row['cpu_median_ms']:.3f} | "
+            f"{row['cpu_p99_ms']:.3f} | {row['ticks']} | {row['decisions']} |"
+        )
     met = ", ".join(f"{k}: {'ok' if v else 'MISSED'}" for k, v in result["floors_met"].items())
     return "\n".join(lines) + f"\n\nfloors (< {result['floor_ms']} ms): {met}"

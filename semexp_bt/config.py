@@ -159,7 +159,9 @@ def _check_value(where: str, key: str, value: Any, ftype: Any, meta: dict[str, A
     return value
 
 
-def config_from_dict(data: Any, *, cls: type = SemExpConfig, where: str = "<config>", prefix: str = "") -> Any:
+def config_from_dict(
+    data: Any, *, cls: type = SemExpConfig, where: str = "<config>", prefix: str = ""
+) -> Any:
     """Build a config dataclass from nested mappings, validating every key.
 
     Args:

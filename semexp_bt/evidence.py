@@ -557,7 +557,9 @@ def arbitrate(
     # P(t) for unexplored directions: a direction is a place to look, never the target itself, so its
     # prior is config.direction_prior (< 1). Without it every Eq. 2 factor is <= 1 and an object seen by
     # both sources (two confidences and an IoU term) could never outrank a bare direction.
-    is_direction = np.array([False] * len(aligned_dets) + [proposals[i].kind == "direction" for i in scene_only])
+    is_direction = np.array(
+        [False] * len(aligned_dets) + [proposals[i].kind == "direction" for i in scene_only]
+    )
     priors = np.where(is_direction, priors * config.direction_prior, priors)
     score = priors * term_o * term_s
     score = score * np.where(consistency, (iou + config.epsilon) ** config.lambda_iou, 1.0)

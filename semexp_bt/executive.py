@@ -19,8 +19,17 @@ from semexp_bt.relevance import instruction_target
 from semexp_bt.types import Pose2D
 
 #: The keys the runner writes before the first tick (its rows in blackboard.schema name "runner").
-RUNNER_KEYS = ("instruction", "target_label", "instructions_left", "start_pose", "memory", "mission_outcome",
-               "found_objects", "subgoal", "local_map")
+RUNNER_KEYS = (
+    "instruction",
+    "target_label",
+    "instructions_left",
+    "start_pose",
+    "memory",
+    "mission_outcome",
+    "found_objects",
+    "subgoal",
+    "local_map",
+)
 
 
 def prepare_board(
@@ -55,7 +64,9 @@ def prepare_board(
     return board
 
 
-def build_tree(*, mission_path: Path, services: MissionServices, registry=None) -> py_trees.trees.BehaviourTree:  # type: ignore[no-untyped-def]
+def build_tree(
+    *, mission_path: Path, services: MissionServices, registry=None
+) -> py_trees.trees.BehaviourTree:  # type: ignore[no-untyped-def]
     """Load and build the mission tree with ``services``; the mission's ``config:`` overrides end up in
     ``services.config``."""
     from trees.loader import load_mission
@@ -63,7 +74,10 @@ def build_tree(*, mission_path: Path, services: MissionServices, registry=None) 
 
     registry = registry if registry is not None else default_registry()
     context = BuildContext(
-        clock=services.robot.now_s, robot=services.robot, config=services.config, services={SERVICES_KEY: services}
+        clock=services.robot.now_s,
+        robot=services.robot,
+        config=services.config,
+        services={SERVICES_KEY: services},
     )
     mission = load_mission(mission_path, registry=registry, context=context)
     services.config = mission.config

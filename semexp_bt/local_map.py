@@ -89,7 +89,9 @@ class OccupancyMap:
     # ------------------------------------------------------------------ geometry
     def cell_of(self, xy: FloatArray) -> npt.NDArray[np.int64]:
         """``(..., 2)`` world xy -> ``(..., 2)`` (row = x index, col = y index), unclipped."""
-        return np.floor((np.asarray(xy, dtype=float) - self._lower) / self.config.resolution_m).astype(np.int64)
+        return np.floor((np.asarray(xy, dtype=float) - self._lower) / self.config.resolution_m).astype(
+            np.int64
+        )
 
     def centre_of(self, cells: npt.NDArray[np.int64]) -> FloatArray:
         return self._lower + (np.asarray(cells, dtype=float) + 0.5) * self.config.resolution_m
@@ -103,13 +105,17 @@ class OccupancyMap:
         cfg = self.config
         depth = np.asarray(observation.depth_m, dtype=float)[:: cfg.pixel_stride, :: cfg.pixel_stride]
         k = observation.intrinsics
-        rows, cols = np.mgrid[0 : observation.depth_m.shape[0] : cfg.pixel_stride,
-                              0 : observation.depth_m.shape[1] : cfg.pixel_stride]
+        rows, cols = np.mgrid[
+            0 : observation.depth_m.shape[0] : cfg.pixel_stride,
+            0 : observation.depth_m.shape[1] : cfg.pixel_stride,
+        ]
         valid = np.isfinite(depth) & (depth > 0.0) & (depth <= cfg.max_range_m)
         if not valid.any():
             return 0
         z = depth[valid]
-        pts_cam = np.stack([(cols[valid] - k.cx_px) / k.fx_px * z, (rows[valid] - k.cy_px) / k.fy_px * z, z], axis=1)
+        pts_cam = np.stack(
+            [(cols[valid] - k.cx_px) / k.fx_px * z, (rows[valid] - k.cy_px) / k.fy_px * z, z], axis=1
+        )
         t = np.asarray(observation.camera_to_world, dtype=float)
         pts = pts_cam @ t[:3, :3].T + t[:3, 3]
         origin = t[:3, 3]
@@ -175,7 +181,9 @@ class OccupancyMap:
         known = self.known()[lo[0] : hi[0], lo[1] : hi[1]]
         return float(known[disc].mean()) if disc.any() else 0.0
 
-    def frontiers(self, around_xy: FloatArray, *, radius_m: float, min_cells: int = 6) -> list[tuple[float, float, int]]:
+    def frontiers(
+        self, around_xy: FloatArray, *, radius_m: float, min_cells: int = 6
+    ) -> list[tuple[float, float, int]]:
         """Frontier clusters near ``around_xy``: seen-free cells the robot could stand on that border cells
         no ray has reached. Returns ``(x, y, cells)`` per cluster, at the cluster's cell nearest its centroid."""
         cfg = self.config
@@ -221,7 +229,9 @@ class OccupancyMap:
         shape = occupied.shape
         if min(shape) < 2:
             return None
-        clearance = ndimage.distance_transform_edt(~occupied) * res if occupied.any() else np.full(shape, np.inf)
+        clearance = (
+            ndimage.distance_transform_edt(~occupied) * res if occupied.any() else np.full(shape, np.inf)
+        )
         start = self.cell_of(np.asarray(start_xy)) - lo
         if not (0 <= start[0] < shape[0] and 0 <= start[1] < shape[1]):
             return None
@@ -230,7 +240,9 @@ class OccupancyMap:
         rr, cc = np.ogrid[: shape[0], : shape[1]]
         near_start = (rr - start[0]) ** 2 + (cc - start[1]) ** 2 <= (cfg.robot_radius_m / res) ** 2
         passable |= near_start & (clearance > 0.5 * res)
-        weight = np.where(known, 1.0, cfg.unknown_cost) * np.where(clearance < cfg.comfort_m, cfg.near_obstacle_cost, 1.0)
+        weight = np.where(known, 1.0, cfg.unknown_cost) * np.where(
+            clearance < cfg.comfort_m, cfg.near_obstacle_cost, 1.0
+        )
         graph = _grid_graph(passable, weight, res)
         start_index = int(start[0] * shape[1] + start[1])
         dist, predecessors = dijkstra(graph, directed=True, indices=start_index, return_predecessors=True)
@@ -240,7 +252,9 @@ class OccupancyMap:
         centres_y = self._lower[1] + (np.arange(lo[1], hi[1]) + 0.5) * res
         gap = np.hypot(centres_x[:, None] - goal_xy[0], centres_y[None, :] - goal_xy[1])
         reach = dist.reshape(shape)
-        candidates = (gap <= cfg.goal_tolerance_m) & np.isfinite(reach) & passable & (clearance >= cfg.standoff_m)
+        candidates = (
+            (gap <= cfg.goal_tolerance_m) & np.isfinite(reach) & passable & (clearance >= cfg.standoff_m)
+        )
         if not candidates.any():
             return None
         score = np.where(candidates, gap * 4.0 + reach * 0.25, np.inf)
@@ -277,7 +291,9 @@ def _grid_graph(passable: npt.NDArray[np.bool_], weight: FloatArray, res: float)
         targets.append(dst)
         costs.append(w * res * math.hypot(dr, dc))
     n = rows * cols
-    return csr_matrix((np.concatenate(costs), (np.concatenate(sources), np.concatenate(targets))), shape=(n, n))
+    return csr_matrix(
+        (np.concatenate(costs), (np.concatenate(sources), np.concatenate(targets))), shape=(n, n)
+    )
 
 
 def lookahead_point(waypoints: FloatArray, *, distance_m: float) -> FloatArray:

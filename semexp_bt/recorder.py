@@ -43,7 +43,11 @@ class _TimingVisitor(py_trees.visitors.VisitorBase):
 
     def run(self, behaviour: py_trees.behaviour.Behaviour) -> None:
         now = time.perf_counter()
-        self.statuses[behaviour.name] = (behaviour.status.name, (now - self._last) * 1e3, behaviour.feedback_message)
+        self.statuses[behaviour.name] = (
+            behaviour.status.name,
+            (now - self._last) * 1e3,
+            behaviour.feedback_message,
+        )
         self._last = now
 
 
@@ -90,8 +94,12 @@ class TickRecorder:
         if stream is None:
             return []
         writes = [
-            {"key": item.key, "client": item.client_name, "type": item.activity_type,
-             "value": summarize(item.current_value)}
+            {
+                "key": item.key,
+                "client": item.client_name,
+                "type": item.activity_type,
+                "value": summarize(item.current_value),
+            }
             for item in stream.data
             if item.activity_type in ("WRITE", "INITIALISED")
         ]
@@ -105,13 +113,20 @@ class TickRecorder:
         statuses = self._visitor.statuses
         writes = self._drain_activity()
         if self._file is not None:
-            self._file.write(json.dumps({
-                "tick": tick,
-                "stamp_s": round(stamp_s, 4),
-                "nodes": {name: {"status": s, "ms": round(ms, 4), "feedback": fb}
-                          for name, (s, ms, fb) in statuses.items()},
-                "writes": writes,
-            }) + "\n")
+            self._file.write(
+                json.dumps(
+                    {
+                        "tick": tick,
+                        "stamp_s": round(stamp_s, 4),
+                        "nodes": {
+                            name: {"status": s, "ms": round(ms, 4), "feedback": fb}
+                            for name, (s, ms, fb) in statuses.items()
+                        },
+                        "writes": writes,
+                    }
+                )
+                + "\n"
+            )
         if self.display:
             changed = {name: s for name, (s, _, _) in statuses.items() if self._previous.get(name) != s}
             news = [w for w in writes if w["key"] not in HIGH_RATE_KEYS]
@@ -132,7 +147,9 @@ class TickRecorder:
             sg = self.subgoal_getter()
             if sg is not None:
                 x, y, _ = sg.position_m
-                out.write(f"  subgoal: node {sg.node_id} {sg.label!r} at ({x:.2f}, {y:.2f}) U={sg.utility:.3f}\n")
+                out.write(
+                    f"  subgoal: node {sg.node_id} {sg.label!r} at ({x:.2f}, {y:.2f}) U={sg.utility:.3f}\n"
+                )
         out.flush()
 
     def close(self) -> None:

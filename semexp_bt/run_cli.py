@@ -12,13 +12,25 @@ from pathlib import Path
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("mission", type=Path, help="mission tree (YAML), e.g. trees/object_search.yaml")
     parser.add_argument("--scene", required=True, help="scene name (see `semexp-bt scene list`)")
-    parser.add_argument("--seed", type=int, default=0, help="seed for layout, start pose and perception noise")
-    parser.add_argument("--instruction", default=None, help="override the instruction, e.g. 'find the bucket shelf'")
-    parser.add_argument("--fidelity", choices=("kinematic", "dynamic"), default=None,
-                        help="robot fidelity (default: the mission's setting, else kinematic)")
+    parser.add_argument(
+        "--seed", type=int, default=0, help="seed for layout, start pose and perception noise"
+    )
+    parser.add_argument(
+        "--instruction", default=None, help="override the instruction, e.g. 'find the bucket shelf'"
+    )
+    parser.add_argument(
+        "--fidelity",
+        choices=("kinematic", "dynamic"),
+        default=None,
+        help="robot fidelity (default: the mission's setting, else kinematic)",
+    )
     parser.add_argument("--strategy", default="ours", help="strategy (see semexp_bt/strategies.py)")
-    parser.add_argument("--relevance", choices=("embedding", "lexical"), default="embedding",
-                        help="semantic relevance scorer (embedding: offline MiniLM; lexical: no torch)")
+    parser.add_argument(
+        "--relevance",
+        choices=("embedding", "lexical"),
+        default="embedding",
+        help="semantic relevance scorer (embedding: offline MiniLM; lexical: no torch)",
+    )
     parser.add_argument("--json", type=Path, default=None, help="write the episode record here")
     parser.add_argument("--record", type=Path, default=None, help="write the per-tick record (JSONL) here")
     parser.add_argument("--display", action="store_true", help="show the tick-level display")
@@ -31,11 +43,19 @@ def run(args: argparse.Namespace) -> int:
     if not args.mission.is_file():
         print(f"error: mission file {args.mission} does not exist", file=sys.stderr)
         return 2
-    record = run_mission(RunOptions(
-        mission_path=args.mission, scene=args.scene, seed=args.seed, instruction=args.instruction,
-        fidelity=args.fidelity, strategy=args.strategy, relevance=args.relevance, display=args.display,
-        record_path=args.record,
-    ))
+    record = run_mission(
+        RunOptions(
+            mission_path=args.mission,
+            scene=args.scene,
+            seed=args.seed,
+            instruction=args.instruction,
+            fidelity=args.fidelity,
+            strategy=args.strategy,
+            relevance=args.relevance,
+            display=args.display,
+            record_path=args.record,
+        )
+    )
     if args.json is not None:
         args.json.parent.mkdir(parents=True, exist_ok=True)
         args.json.write_text(json.dumps(record, indent=1))

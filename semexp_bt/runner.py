@@ -137,13 +137,19 @@ def run_mission(options: RunOptions) -> dict[str, Any]:
                 goal_oracle, scene.goal.object_id, success_radius_m=options.success_radius_m
             )
         board = prepare_board(
-            instructions=instructions, start_pose=episode.start, memory=TopologicalMemory(config.memory),
+            instructions=instructions,
+            start_pose=episode.start,
+            memory=TopologicalMemory(config.memory),
             activity_stream=options.display or options.record_path is not None,
         )
         tree = build_tree(mission_path=options.mission_path, services=services, registry=registry)
         recorder = TickRecorder(
-            tree=tree, path=options.record_path, display=options.display, stream=options.display_stream,
-            memory_getter=lambda: board.memory, subgoal_getter=lambda: board.subgoal,
+            tree=tree,
+            path=options.record_path,
+            display=options.display,
+            stream=options.display_stream,
+            memory_getter=lambda: board.memory,
+            subgoal_getter=lambda: board.subgoal,
         )
         tree.setup()
 
@@ -176,9 +182,20 @@ def run_mission(options: RunOptions) -> dict[str, Any]:
         elif status == py_trees.common.Status.FAILURE and outcome == "running":
             outcome = "failed"
         record = _episode_record(
-            options=options, scene=scene, episode=episode, robot=robot, services=services, positions=positions,
-            outcome=outcome, found=list(board.found_objects), instructions=instructions, fidelity=fidelity,
-            strategy=strategy, ticks=ticks, tick_wall=tick_wall, wall_s=time.perf_counter() - wall_start,
+            options=options,
+            scene=scene,
+            episode=episode,
+            robot=robot,
+            services=services,
+            positions=positions,
+            outcome=outcome,
+            found=list(board.found_objects),
+            instructions=instructions,
+            fidelity=fidelity,
+            strategy=strategy,
+            ticks=ticks,
+            tick_wall=tick_wall,
+            wall_s=time.perf_counter() - wall_start,
             oracle_factory=lambda: GeodesicOracle(scene),
         )
         if options.keep_trajectory:
@@ -293,9 +310,21 @@ def _with_oracle_nodes(
 
 
 def _episode_record(
-    *, options: RunOptions, scene: Any, episode: Any, robot: Any, services: MissionServices,
-    positions: list[np.ndarray], outcome: str, found: list[dict[str, Any]], instructions: list[str],
-    fidelity: str, strategy: Strategy, ticks: int, tick_wall: list[float], wall_s: float,
+    *,
+    options: RunOptions,
+    scene: Any,
+    episode: Any,
+    robot: Any,
+    services: MissionServices,
+    positions: list[np.ndarray],
+    outcome: str,
+    found: list[dict[str, Any]],
+    instructions: list[str],
+    fidelity: str,
+    strategy: Strategy,
+    ticks: int,
+    tick_wall: list[float],
+    wall_s: float,
     oracle_factory: Callable[[], Any],
 ) -> dict[str, Any]:
     goal = scene.goal
@@ -315,8 +344,12 @@ def _episode_record(
     if reached is not None and _object_boundary_distance(reached, final_xy) > options.success_radius_m:
         reached = None
 
-    decisions = _with_oracle_nodes(services.decision_log, oracle=oracle_factory(), goal_id=goal.object_id,
-                                   success_radius_m=options.success_radius_m)
+    decisions = _with_oracle_nodes(
+        services.decision_log,
+        oracle=oracle_factory(),
+        goal_id=goal.object_id,
+        success_radius_m=options.success_radius_m,
+    )
 
     distance_to_goal = _object_boundary_distance(goal, final_xy)
     declared = outcome == "success"
@@ -324,7 +357,10 @@ def _episode_record(
     # robot stood when it confirmed the goal object; for the paper's mission that is the final position.
     judged_xy = final_xy
     for entry in found:
-        if entry.get("robot_xy") and _object_boundary_distance(goal, tuple(entry["robot_xy"])) <= options.success_radius_m:
+        if (
+            entry.get("robot_xy")
+            and _object_boundary_distance(goal, tuple(entry["robot_xy"])) <= options.success_radius_m
+        ):
             judged_xy = tuple(entry["robot_xy"])
     judged_distance = _object_boundary_distance(goal, judged_xy)
     return {
@@ -335,10 +371,14 @@ def _episode_record(
         "fidelity": fidelity,
         "instruction": instructions[0],
         "instructions": instructions,
-        "goal": {"object_id": goal.object_id, "name": goal.name, "label": goal.label, "category": goal.category,
-                 "position_m": list(goal.position_m)},
-        "start_pose": {"x_m": episode.start.x_m, "y_m": episode.start.y_m,
-                       "yaw_rad": episode.start.yaw_rad},
+        "goal": {
+            "object_id": goal.object_id,
+            "name": goal.name,
+            "label": goal.label,
+            "category": goal.category,
+            "position_m": list(goal.position_m),
+        },
+        "start_pose": {"x_m": episode.start.x_m, "y_m": episode.start.y_m, "yaw_rad": episode.start.yaw_rad},
         "outcome": outcome,
         "success_declared": declared,
         "success": bool(declared and judged_distance <= options.success_radius_m),
@@ -351,15 +391,19 @@ def _episode_record(
         "collisions": len(collisions),
         "clearance_breaches": len(breaches),
         "min_clearance_m": float(safety.min_clearance_m) if math.isfinite(safety.min_clearance_m) else None,
-        "reached_object": None if reached is None else {"name": reached.name, "label": reached.label,
-                                                         "category": reached.category},
+        "reached_object": None
+        if reached is None
+        else {"name": reached.name, "label": reached.label, "category": reached.category},
         "reached_category": None if reached is None else reached.category,
         "goal_category": goal.category,
         "found_objects": found,
         "decisions": decisions,
         "events": services.events,
         "timings": services.timings.summary(),
-        "tick_wall_ms": {"median": float(np.median(tick_wall) * 1e3), "p99": float(np.percentile(tick_wall, 99) * 1e3)},
+        "tick_wall_ms": {
+            "median": float(np.median(tick_wall) * 1e3),
+            "p99": float(np.percentile(tick_wall, 99) * 1e3),
+        },
         "ticks": ticks,
         "sim_time_s": robot.now_s(),
         "wall_time_s": wall_s,

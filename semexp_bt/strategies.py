@@ -45,8 +45,11 @@ class Strategy:
         from sims.perception_emulator import PerceptionEmulator
 
         return PerceptionEmulator(
-            scene, seed=seed, detector_profile=self.detector_profile,  # type: ignore[arg-type]
-            enable_vlm=self.enable_vlm, enable_detector=self.enable_detector,
+            scene,
+            seed=seed,
+            detector_profile=self.detector_profile,  # type: ignore[arg-type]
+            enable_vlm=self.enable_vlm,
+            enable_detector=self.enable_detector,
         )
 
     def make_relevance(self, name: str) -> RelevanceScorer:
@@ -68,33 +71,82 @@ _VALUE_FRONTIER = {"decision": {"alpha": 1.0, "beta": 1.0, "eta": 0.0, "gamma": 
 STRATEGIES: dict[str, Strategy] = {
     s.name: s
     for s in (
-        Strategy("ours", "confidence-calibrated arbitration + utility decision (the paper's method)",
-                 switches={"evidence": "calibrated", "decision": "utility"}),
-        Strategy("vlm_only", "scene-level VLM evidence only", enable_detector=False,
-                 switches={"evidence": "vlm_only", "decision": "utility"}),
-        Strategy("detector_only", "object-level detector evidence only (GroundingDINO-like)", enable_vlm=False,
-                 switches={"evidence": "detector_only", "decision": "utility"}),
-        Strategy("yolo_world", "object-level evidence only, YOLO-World-like detector profile", enable_vlm=False,
-                 detector_profile="detector_yolo_world", switches={"evidence": "yolo_world", "decision": "utility"}),
-        Strategy("naive_fusion", "both sources, no calibration and no spatial consistency",
-                 config_overrides=_NAIVE, switches={"evidence": "naive_fusion", "decision": "utility"}),
-        Strategy("bayesian", "rank nodes by fused confidence only", config_overrides=_CONFIDENCE_ONLY,
-                 switches={"evidence": "calibrated", "decision": "bayesian"}),
-        Strategy("llm_relevance", "rank nodes by instruction relevance only", config_overrides=_RELEVANCE_ONLY,
-                 switches={"evidence": "calibrated", "decision": "llm_relevance"}),
-        Strategy("vlfm", "VLFM-style value frontier: relevance x confidence, no travel cost",
-                 config_overrides=_VALUE_FRONTIER, switches={"evidence": "calibrated", "decision": "vlfm"}),
-        Strategy("hovsg", "HOV-SG-style hierarchical choice: best region by mean relevance, then best node in it",
-                 switches={"evidence": "calibrated", "decision": "hovsg"}),
-        Strategy("nearest_frontier", "geometry only: nearest node with high exploration potential",
-                 switches={"evidence": "calibrated", "decision": "nearest_frontier"}),
-        Strategy("oracle", "PRIVILEGED reference: knows the goal position (GNSA's oracle as a policy)",
-                 switches={"evidence": "calibrated", "decision": "oracle"}),
-        Strategy("ablation_baseline", "Table IV baseline: scene-level perception + confidence ranking",
-                 enable_detector=False, config_overrides=_CONFIDENCE_ONLY,
-                 switches={"evidence": "vlm_only", "decision": "bayesian"}),
-        Strategy("ablation_arbitration", "Table IV: + evidence arbitration, confidence ranking",
-                 config_overrides=_CONFIDENCE_ONLY, switches={"evidence": "calibrated", "decision": "bayesian"}),
+        Strategy(
+            "ours",
+            "confidence-calibrated arbitration + utility decision (the paper's method)",
+            switches={"evidence": "calibrated", "decision": "utility"},
+        ),
+        Strategy(
+            "vlm_only",
+            "scene-level VLM evidence only",
+            enable_detector=False,
+            switches={"evidence": "vlm_only", "decision": "utility"},
+        ),
+        Strategy(
+            "detector_only",
+            "object-level detector evidence only (GroundingDINO-like)",
+            enable_vlm=False,
+            switches={"evidence": "detector_only", "decision": "utility"},
+        ),
+        Strategy(
+            "yolo_world",
+            "object-level evidence only, YOLO-World-like detector profile",
+            enable_vlm=False,
+            detector_profile="detector_yolo_world",
+            switches={"evidence": "yolo_world", "decision": "utility"},
+        ),
+        Strategy(
+            "naive_fusion",
+            "both sources, no calibration and no spatial consistency",
+            config_overrides=_NAIVE,
+            switches={"evidence": "naive_fusion", "decision": "utility"},
+        ),
+        Strategy(
+            "bayesian",
+            "rank nodes by fused confidence only",
+            config_overrides=_CONFIDENCE_ONLY,
+            switches={"evidence": "calibrated", "decision": "bayesian"},
+        ),
+        Strategy(
+            "llm_relevance",
+            "rank nodes by instruction relevance only",
+            config_overrides=_RELEVANCE_ONLY,
+            switches={"evidence": "calibrated", "decision": "llm_relevance"},
+        ),
+        Strategy(
+            "vlfm",
+            "VLFM-style value frontier: relevance x confidence, no travel cost",
+            config_overrides=_VALUE_FRONTIER,
+            switches={"evidence": "calibrated", "decision": "vlfm"},
+        ),
+        Strategy(
+            "hovsg",
+            "HOV-SG-style hierarchical choice: best region by mean relevance, then best node in it",
+            switches={"evidence": "calibrated", "decision": "hovsg"},
+        ),
+        Strategy(
+            "nearest_frontier",
+            "geometry only: nearest node with high exploration potential",
+            switches={"evidence": "calibrated", "decision": "nearest_frontier"},
+        ),
+        Strategy(
+            "oracle",
+            "PRIVILEGED reference: knows the goal position (GNSA's oracle as a policy)",
+            switches={"evidence": "calibrated", "decision": "oracle"},
+        ),
+        Strategy(
+            "ablation_baseline",
+            "Table IV baseline: scene-level perception + confidence ranking",
+            enable_detector=False,
+            config_overrides=_CONFIDENCE_ONLY,
+            switches={"evidence": "vlm_only", "decision": "bayesian"},
+        ),
+        Strategy(
+            "ablation_arbitration",
+            "Table IV: + evidence arbitration, confidence ranking",
+            config_overrides=_CONFIDENCE_ONLY,
+            switches={"evidence": "calibrated", "decision": "bayesian"},
+        ),
     )
 }
 

@@ -78,8 +78,14 @@ class CameraIntrinsics:
     def from_fov(cls, *, width_px: int, height_px: int, vertical_fov_deg: float) -> CameraIntrinsics:
         """Square-pixel intrinsics with the principal point at the image centre."""
         fy = 0.5 * height_px / math.tan(math.radians(vertical_fov_deg) / 2.0)
-        return cls(fx_px=fy, fy_px=fy, cx_px=(width_px - 1) / 2.0, cy_px=(height_px - 1) / 2.0,
-                   width_px=width_px, height_px=height_px)
+        return cls(
+            fx_px=fy,
+            fy_px=fy,
+            cx_px=(width_px - 1) / 2.0,
+            cy_px=(height_px - 1) / 2.0,
+            width_px=width_px,
+            height_px=height_px,
+        )
 
 
 @dataclass(frozen=True)

@@ -18,8 +18,16 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 BIN = Path(sys.executable).parent
 CORE_MODULES = (
-    "semexp_bt.types", "semexp_bt.config", "semexp_bt.geometry", "semexp_bt.evidence", "semexp_bt.memory",
-    "semexp_bt.decision", "semexp_bt.relevance", "semexp_bt.metrics", "semexp_bt.scene", "semexp_bt.planner",
+    "semexp_bt.types",
+    "semexp_bt.config",
+    "semexp_bt.geometry",
+    "semexp_bt.evidence",
+    "semexp_bt.memory",
+    "semexp_bt.decision",
+    "semexp_bt.relevance",
+    "semexp_bt.metrics",
+    "semexp_bt.scene",
+    "semexp_bt.planner",
     "semexp_bt.decision_baselines",
 )
 FORBIDDEN_IN_CORE = ("py_trees", "mujoco", "torch", "cyclonedds", "rclpy", "cv2", "sentence_transformers")
@@ -50,6 +58,8 @@ def test_core_module_imports_no_heavy_dependency(module: str) -> None:
         f"import sys, importlib; importlib.import_module({module!r}); "
         f"bad = [m for m in {FORBIDDEN_IN_CORE!r} if m in sys.modules]; print(','.join(bad))"
     )
-    result = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=120)
+    result = subprocess.run(
+        [sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=120
+    )
     assert result.returncode == 0, result.stderr
     assert result.stdout.strip() == "", f"{module} pulled in {result.stdout.strip()}"

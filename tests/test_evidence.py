@@ -31,7 +31,13 @@ TARGET = "mug"
 # The hand-worked examples use the paper's literal rule (a term whose source does not cover the candidate
 # is omitted); the cross-source consistency reading is tested separately below.
 CONFIG = ArbitrationConfig(
-    tau=0.5, beta_o=1.0, beta_s=2.0, lambda_iou=0.5, mu=1.0, epsilon=1e-3, cross_source_consistency=False,
+    tau=0.5,
+    beta_o=1.0,
+    beta_s=2.0,
+    lambda_iou=0.5,
+    mu=1.0,
+    epsilon=1e-3,
+    cross_source_consistency=False,
     direction_prior=1.0,
 )
 
@@ -564,7 +570,9 @@ def test_cross_source_consistency_rewards_corroboration() -> None:
     """
     config = ArbitrationConfig(tau=0.5, beta_o=1.0, beta_s=2.0, lambda_iou=0.5, mu=1.0, epsilon=1e-3)
     scene = SceneEvidence(
-        proposals=(SceneProposal(point_px=(120.0, 120.0), label="fire extinguisher", region_px=(100, 100, 140, 140)),),
+        proposals=(
+            SceneProposal(point_px=(120.0, 120.0), label="fire extinguisher", region_px=(100, 100, 140, 140)),
+        ),
         scene_confidence=0.9,
     )
     detections = [
@@ -588,15 +596,25 @@ def test_direction_prior_lets_corroborated_object_evidence_outrank_a_bare_direct
     literal P = 1 the direction (0.8) would win although the target is in plain view.
     """
     scene = SceneEvidence(
-        proposals=(SceneProposal(point_px=(97.5, 119.5), label="fire extinguisher"),
-                   SceneProposal(point_px=(40.0, 170.0), label="open area", kind="direction")),
+        proposals=(
+            SceneProposal(point_px=(97.5, 119.5), label="fire extinguisher"),
+            SceneProposal(point_px=(40.0, 170.0), label="open area", kind="direction"),
+        ),
         scene_confidence=0.85,
     )
     detections = [Detection((77.0, 87.0, 118.0, 152.0), "fire extinguisher", 0.9)]
-    ours = arbitrate(scene=scene, detections=detections, is_aligned=lambda label: label == "fire extinguisher",
-                     config=ArbitrationConfig())
+    ours = arbitrate(
+        scene=scene,
+        detections=detections,
+        is_aligned=lambda label: label == "fire extinguisher",
+        config=ArbitrationConfig(),
+    )
     assert ours.target is not None and ours.target.kind == "object"
     assert [round(c.score, 4) for c in ours.candidates] == [0.4479, 0.2]
-    literal = arbitrate(scene=scene, detections=detections, is_aligned=lambda label: label == "fire extinguisher",
-                        config=ArbitrationConfig(direction_prior=1.0))
+    literal = arbitrate(
+        scene=scene,
+        detections=detections,
+        is_aligned=lambda label: label == "fire extinguisher",
+        config=ArbitrationConfig(direction_prior=1.0),
+    )
     assert literal.target is not None and literal.target.kind == "direction"

@@ -69,32 +69,61 @@ def seeing(posts: list[Post], *, directions: bool = True) -> Callable[[Observati
             if post.detector_label is not None:
                 detections.append(Detection(box, post.detector_label, post.detector_confidence))
         if directions:
-            proposals.append(SceneProposal(point_px=(40.0, 170.0), label="open area on the left", kind="direction"))
-            proposals.append(SceneProposal(point_px=(280.0, 170.0), label="open area on the right", kind="direction"))
-        return PerceptionResult(scene=SceneEvidence(tuple(proposals), 0.85), detections=tuple(detections),
-                                observation_stamp_s=observation.stamp_s)
+            proposals.append(
+                SceneProposal(point_px=(40.0, 170.0), label="open area on the left", kind="direction")
+            )
+            proposals.append(
+                SceneProposal(point_px=(280.0, 170.0), label="open area on the right", kind="direction")
+            )
+        return PerceptionResult(
+            scene=SceneEvidence(tuple(proposals), 0.85),
+            detections=tuple(detections),
+            observation_stamp_s=observation.stamp_s,
+        )
 
     return answer
 
 
-def make_services(robot: NullRobot, answer: Callable[[Observation], PerceptionResult], *, budget_s: float = 240.0,
-                  config: SemExpConfig | None = None) -> MissionServices:
+def make_services(
+    robot: NullRobot,
+    answer: Callable[[Observation], PerceptionResult],
+    *,
+    budget_s: float = 240.0,
+    config: SemExpConfig | None = None,
+) -> MissionServices:
     return MissionServices(
-        robot=robot, perception=ScriptedPerception([answer], latency_s=2.5),
-        relevance=CachedRelevance(LexicalRelevance()), config=config or SemExpConfig(), planner=DepthArcPlanner(),
-        rng=np.random.default_rng(0), budget_s=budget_s,
+        robot=robot,
+        perception=ScriptedPerception([answer], latency_s=2.5),
+        relevance=CachedRelevance(LexicalRelevance()),
+        config=config or SemExpConfig(),
+        planner=DepthArcPlanner(),
+        rng=np.random.default_rng(0),
+        budget_s=budget_s,
     )
 
 
-def run(mission: str, services: MissionServices, instructions: list[str], *, max_sim_s: float = 400.0,
-        recorder_kwargs: dict | None = None) -> tuple[py_trees.trees.BehaviourTree, py_trees.blackboard.Client]:
+def run(
+    mission: str,
+    services: MissionServices,
+    instructions: list[str],
+    *,
+    max_sim_s: float = 400.0,
+    recorder_kwargs: dict | None = None,
+) -> tuple[py_trees.trees.BehaviourTree, py_trees.blackboard.Client]:
     robot = services.robot
-    board = prepare_board(instructions=instructions, start_pose=robot.base_pose(),
-                          memory=TopologicalMemory(services.config.memory),
-                          activity_stream=recorder_kwargs is not None)
+    board = prepare_board(
+        instructions=instructions,
+        start_pose=robot.base_pose(),
+        memory=TopologicalMemory(services.config.memory),
+        activity_stream=recorder_kwargs is not None,
+    )
     tree = build_tree(mission_path=TREES / mission, services=services)
-    recorder = TickRecorder(tree=tree, memory_getter=lambda: board.memory, subgoal_getter=lambda: board.subgoal,
-                            **(recorder_kwargs or {"path": None, "display": False}))
+    recorder = TickRecorder(
+        tree=tree,
+        memory_getter=lambda: board.memory,
+        subgoal_getter=lambda: board.subgoal,
+        **(recorder_kwargs or {"path": None, "display": False}),
+    )
     tree.setup()
     ticks = 0
     while robot.now_s() < max_sim_s:
@@ -132,17 +161,21 @@ def test_a_distractor_the_detector_confuses_is_never_confirmed() -> None:
     Cross-source consistency leaves the uncorroborated confusion with a low posterior score, so the robot
     may go and look, but it never declares success there; it finds the real extinguisher instead.
     """
-    distractor = Post(2, 2.5, -0.5, vlm_label="red trash can", detector_label="fire extinguisher",
-                      detector_confidence=0.45)
+    distractor = Post(
+        2, 2.5, -0.5, vlm_label="red trash can", detector_label="fire extinguisher", detector_confidence=0.45
+    )
     target = Post(1, -3.0, 2.5, vlm_label="fire extinguisher", detector_label="fire extinguisher")
-    robot = NullRobot(start_pose=Pose2D(0.0, 0.0, 0.0),
-                      posts=((2, 2.5, -0.5, 0.2, 0.6), (1, -3.0, 2.5, 0.2, 0.6)))
+    robot = NullRobot(
+        start_pose=Pose2D(0.0, 0.0, 0.0), posts=((2, 2.5, -0.5, 0.2, 0.6), (1, -3.0, 2.5, 0.2, 0.6))
+    )
     services = make_services(robot, seeing([distractor, target]))
     tree, board = run("object_search.yaml", services, ["find the fire extinguisher"])
     assert board.mission_outcome == "success"
     found = board.found_objects[-1]["position_m"]
     assert math.hypot(found[0] + 3.0, found[1] - 2.5) < 0.5, f"confirmed at {found}, not at the extinguisher"
-    assert not any(math.hypot(f["position_m"][0] - 2.5, f["position_m"][1] + 0.5) < 1.0 for f in board.found_objects)
+    assert not any(
+        math.hypot(f["position_m"][0] - 2.5, f["position_m"][1] + 0.5) < 1.0 for f in board.found_objects
+    )
 
 
 def test_budget_guard_fails_the_mission_safely_when_nothing_is_found() -> None:
@@ -157,7 +190,10 @@ def test_budget_guard_fails_the_mission_safely_when_nothing_is_found() -> None:
 
 
 def test_multi_object_search_confirms_each_object_in_turn() -> None:
-    posts = [Post(1, 3.0, 0.0, "fire extinguisher", "fire extinguisher"), Post(2, -2.0, 2.5, "red trash can", None)]
+    posts = [
+        Post(1, 3.0, 0.0, "fire extinguisher", "fire extinguisher"),
+        Post(2, -2.0, 2.5, "red trash can", None),
+    ]
 
     def answer(observation: Observation) -> PerceptionResult:
         # The detector is prompted with the current target: it reports only what matches the prompt.
@@ -168,10 +204,16 @@ def test_multi_object_search_confirms_each_object_in_turn() -> None:
             dets += tuple(Detection(p.box_xyxy_px, "red trash can", 0.9) for p in _boxes(observation, 2))
         return PerceptionResult(scene=result.scene, detections=dets, observation_stamp_s=observation.stamp_s)
 
-    robot = NullRobot(start_pose=Pose2D(0.0, 0.0, 0.0), posts=((1, 3.0, 0.0, 0.2, 0.6), (2, -2.0, 2.5, 0.2, 0.6)))
+    robot = NullRobot(
+        start_pose=Pose2D(0.0, 0.0, 0.0), posts=((1, 3.0, 0.0, 0.2, 0.6), (2, -2.0, 2.5, 0.2, 0.6))
+    )
     services = make_services(robot, answer, budget_s=500.0)
-    tree, board = run("multi_object_search.yaml", services, ["find the fire extinguisher", "find the red trash can"],
-                      max_sim_s=520.0)
+    tree, board = run(
+        "multi_object_search.yaml",
+        services,
+        ["find the fire extinguisher", "find the red trash can"],
+        max_sim_s=520.0,
+    )
     assert tree.root.status == py_trees.common.Status.SUCCESS, [e for e in services.events]
     assert [f["label"] for f in board.found_objects] == ["fire extinguisher", "red trash can"]
     assert board.instructions_left == []
@@ -197,7 +239,9 @@ def test_search_and_return_walks_back_to_the_start() -> None:
     assert tree.root.status == py_trees.common.Status.SUCCESS
     assert [f["label"] for f in board.found_objects] == ["fire extinguisher"]
     pose = robot.base_pose()
-    assert math.hypot(pose.x_m, pose.y_m) < 0.6, f"ended at ({pose.x_m:.2f}, {pose.y_m:.2f}), not at the start"
+    assert math.hypot(pose.x_m, pose.y_m) < 0.6, (
+        f"ended at ({pose.x_m:.2f}, {pose.y_m:.2f}), not at the start"
+    )
 
 
 def test_two_missions_in_one_process_share_no_state() -> None:
@@ -214,7 +258,9 @@ def test_two_missions_in_one_process_share_no_state() -> None:
     assert board_two.memory is not memory_one
     # Nothing carried over: no node of the first mission (all near the origin, one a fire extinguisher)
     # is in the second memory, whose nodes all lie around its own start at (10, 10).
-    assert all(math.hypot(n.position_m[0] - 10.0, n.position_m[1] - 10.0) < 8.0 for n in board_two.memory.nodes())
+    assert all(
+        math.hypot(n.position_m[0] - 10.0, n.position_m[1] - 10.0) < 8.0 for n in board_two.memory.nodes()
+    )
     assert not any(n.label == "fire extinguisher" for n in board_two.memory.nodes())
     map_two = board_two.local_map
     assert map_two is not map_one and map_two.origin_xy == (10.0, 10.0)
@@ -230,8 +276,12 @@ def test_display_shows_changes_and_the_record_replays(tmp_path: Path) -> None:
     services = make_services(robot, seeing([target]))
     stream = io.StringIO()
     record = tmp_path / "ticks.jsonl"
-    tree, board = run("object_search.yaml", services, ["find the fire extinguisher"],
-                      recorder_kwargs={"path": record, "display": True, "stream": stream})
+    tree, board = run(
+        "object_search.yaml",
+        services,
+        ["find the fire extinguisher"],
+        recorder_kwargs={"path": record, "display": True, "stream": stream},
+    )
     shown = stream.getvalue()
     assert board.mission_outcome == "success"
     assert "--- tick 1 " in shown and "[o] Mission" in shown.replace("[-]", "[o]") or "Mission" in shown
@@ -250,8 +300,11 @@ def test_display_shows_changes_and_the_record_replays(tmp_path: Path) -> None:
 def test_no_display_and_no_record_add_no_visitor() -> None:
     robot = NullRobot(start_pose=Pose2D(0.0, 0.0, 0.0))
     services = make_services(robot, seeing([]), budget_s=5.0)
-    prepare_board(instructions=["find the fire extinguisher"], start_pose=robot.base_pose(),
-                  memory=TopologicalMemory(services.config.memory))
+    prepare_board(
+        instructions=["find the fire extinguisher"],
+        start_pose=robot.base_pose(),
+        memory=TopologicalMemory(services.config.memory),
+    )
     tree = build_tree(mission_path=TREES / "object_search.yaml", services=services)
     TickRecorder(tree=tree, path=None, display=False)
     assert tree.visitors == []

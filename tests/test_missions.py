@@ -50,7 +50,9 @@ def test_paper_mission_finds_the_goal(scene: str, seed: int) -> None:
 
 
 @pytest.mark.parametrize("scene", ["office", "laboratory", "showroom"])
-def test_no_success_is_declared_when_only_distractors_are_there(scene: str, monkeypatch: pytest.MonkeyPatch) -> None:
+def test_no_success_is_declared_when_only_distractors_are_there(
+    scene: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
     """The goal object is sunk 5 m under the floor: the camera never sees it, the distractors stay."""
     build = sims.catalogue.build_scene
 
@@ -58,15 +60,22 @@ def test_no_success_is_declared_when_only_distractors_are_there(scene: str, monk
         spec = build(name, seed=seed)
         objects = tuple(
             dataclasses.replace(o, position_m=(o.position_m[0], o.position_m[1], -5.0), is_obstacle=False)
-            if o.object_id == spec.goal_object_id else o
+            if o.object_id == spec.goal_object_id
+            else o
             for o in spec.objects
         )
         return dataclasses.replace(spec, objects=objects)
 
     monkeypatch.setattr(sims.catalogue, "build_scene", without_visible_goal)
-    record = run_mission(RunOptions(
-        mission_path=MISSION, scene=scene, seed=1, relevance="lexical", max_sim_s=150.0,
-    ))
+    record = run_mission(
+        RunOptions(
+            mission_path=MISSION,
+            scene=scene,
+            seed=1,
+            relevance="lexical",
+            max_sim_s=150.0,
+        )
+    )
     print(_summary(record))
     assert record["outcome"] != "success", _summary(record)
     assert record["found_objects"] == []
