@@ -80,3 +80,23 @@ def test_no_success_is_declared_when_only_distractors_are_there(
     assert record["outcome"] != "success", _summary(record)
     assert record["found_objects"] == []
     assert record["decisions"], "the robot should have explored (decided at least once) before giving up"
+
+
+@pytest.mark.slow
+def test_dynamic_fidelity_mission_walks_with_the_rl_gait_without_falling() -> None:
+    """Dynamic fidelity: legs, physics and the shipped RL gait realise the planner's twists."""
+    record = run_mission(
+        RunOptions(
+            mission_path=MISSION,
+            scene="showroom",
+            seed=1,
+            relevance="lexical",
+            fidelity="dynamic",
+            max_sim_s=120.0,
+        )
+    )
+    print(_summary(record))
+    assert record["fidelity"] == "dynamic"
+    assert record["outcome"] != "fallen" and not any(e["kind"] == "fallen" for e in record["events"])
+    assert record["path_length_m"] > 5.0, "the gait should carry the robot through several subgoals"
+    assert len(record["decisions"]) >= 3
