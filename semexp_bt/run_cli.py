@@ -38,12 +38,24 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     os.environ.setdefault("MUJOCO_GL", "egl")
-    from semexp_bt.runner import RunOptions, run_mission
-
     if not args.mission.is_file():
         print(f"error: mission file {args.mission} does not exist", file=sys.stderr)
         return 2
-    record = run_mission(
+    try:
+        record = _run(args)
+    except ValueError as exc:  # MissionLoadError, ConfigError, InvalidInputError, unknown scene or strategy
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    if args.json is not None:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(json.dumps(record, indent=1))
+    return _report(record)
+
+
+def _run(args: argparse.Namespace) -> dict:
+    from semexp_bt.runner import RunOptions, run_mission
+
+    return run_mission(
         RunOptions(
             mission_path=args.mission,
             scene=args.scene,
@@ -56,9 +68,10 @@ def run(args: argparse.Namespace) -> int:
             record_path=args.record,
         )
     )
-    if args.json is not None:
-        args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps(record, indent=1))
+
+
+def _report(record: dict) -> int:
+    """Print the one-line summary; exit status 0 only for a successful mission."""
     reached = record["reached_object"]["label"] if record["reached_object"] else "nothing"
     print(
         f"{record['scene']} seed {record['seed']}: {record['outcome']}"
