@@ -49,10 +49,7 @@ class Arbitrate(SemExpBehaviour):
         self.align_threshold = align_threshold
 
     def is_aligned(self, label: str) -> bool:
-        return (
-            self.services.relevance.score(instruction=self.read("instruction"), label=label)
-            >= self.align_threshold
-        )
+        return self.names_instructed_object(label, threshold=self.align_threshold)
 
     def update(self) -> py_trees.common.Status:
         observation = self.read("observation")

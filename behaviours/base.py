@@ -62,6 +62,11 @@ class SemExpBehaviour(py_trees.behaviour.Behaviour):
         """Write a schema-checked value."""
         checked_write(self.board, key, value)
 
+    def names_instructed_object(self, label: str, *, threshold: float) -> bool:
+        """Whether ``label``'s relevance to the current instruction reaches ``threshold`` (needs
+        ``instruction`` in READS)."""
+        return self.services.relevance.score(instruction=self.read("instruction"), label=label) >= threshold
+
     def now_s(self) -> float:
         return self.services.clock()
 

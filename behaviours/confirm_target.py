@@ -126,10 +126,7 @@ class ConfirmTarget(SemExpBehaviour):
         self._job = None
 
     def _aligned(self, label: str) -> bool:
-        return (
-            self.services.relevance.score(instruction=self.read("instruction"), label=label)
-            >= self.align_threshold
-        )
+        return self.names_instructed_object(label, threshold=self.align_threshold)
 
     def _confirmable(self, arbitration, observation) -> np.ndarray | None:
         """The target's world position if it passes every check, else None."""

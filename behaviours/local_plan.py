@@ -37,6 +37,7 @@ import py_trees
 
 from behaviours.base import SemExpBehaviour
 from behaviours.spec import BuildContext, ParamSpec
+from semexp_bt.geometry import world_to_base
 from semexp_bt.local_map import lookahead_point
 from semexp_bt.planner import arc_points
 from semexp_bt.types import Pose2D, Twist
@@ -199,9 +200,7 @@ class LocalPlan(SemExpBehaviour):
                     self.feedback_message = "no path to the subgoal on the map"
                     self.services.log_event("no_path", node_id=subgoal.node_id)
                     return py_trees.common.Status.FAILURE
-            gx, gy = aim[0] - pose.x_m, aim[1] - pose.y_m
-            c, s = math.cos(pose.yaw_rad), math.sin(pose.yaw_rad)
-            goal_base = (c * gx + s * gy, -s * gx + c * gy)
+            goal_base = world_to_base(aim, pose)
             camera_to_base = np.linalg.inv(base_footprint_to_world(frame.base_pose)) @ frame.camera_to_world
             result = self.services.planner.plan(
                 depth_m=frame.depth_m,

@@ -232,7 +232,7 @@ class UpdateMemory(SemExpBehaviour):
 
     def _instructed(self, label: str) -> bool:
         """Whether ``label`` names what the instruction asks for (only such evidence may relabel a node)."""
-        return self.services.relevance.score(instruction=self.read("instruction"), label=label) >= 0.6
+        return self.names_instructed_object(label, threshold=0.6)
 
     @staticmethod
     def _would_relabel(memory, point, label: str) -> bool:  # type: ignore[no-untyped-def]

@@ -216,20 +216,11 @@ def _privileged_goal_distance(
 ) -> Callable[[Any], float]:
     """``(x, y) -> geodesic distance (m)`` into the goal's success region, from the nearest free cell
     (within :data:`PRIVILEGED_SNAP_RADIUS_M`); ``inf`` when none is free or the goal is unreachable."""
-    grid = oracle.occupancy
-    rows, cols = np.nonzero(grid.free)
-    free_xy = grid.geometry.centre_of(rows, cols)
 
     def distance(xy: Any) -> float:
-        point = np.asarray(xy, dtype=float)[:2]
-        if not grid.is_free(point):
-            if free_xy.size == 0:
-                return math.inf
-            gaps = np.hypot(*(free_xy - point).T)
-            nearest = int(np.argmin(gaps))
-            if gaps[nearest] > PRIVILEGED_SNAP_RADIUS_M:
-                return math.inf
-            point = free_xy[nearest]
+        point = _snap_to_free(oracle, (float(xy[0]), float(xy[1])), max_m=PRIVILEGED_SNAP_RADIUS_M)
+        if point is None:
+            return math.inf
         return float(oracle.distance_to_object(point, goal_object_id, success_radius_m=success_radius_m))
 
     return distance
