@@ -7,6 +7,12 @@ the greedy argmax (Eq. 10) to ``subgoal``. SUCCESS with a subgoal; FAILURE when 
 empty or every utility is zero (the feedback says which), so a recovery branch can act. Every
 decision step, with all candidates and utilities, goes to the episode record.
 
+When Eq. 8 leaves no candidate (every node's potential has decayed under tau_p) and
+``relax_when_exhausted`` is set, it decides once more over the nodes the robot has never reached, with
+tau_p = 0, and says so in the reason ("relaxed: ..."). In a small room the decay of Eq. 7 can otherwise
+empty the candidate set while places the robot only glimpsed remain; the paper does not say what to do
+then, and turning on the spot until the budget runs out is the worst answer.
+
 Example:
     - type: Decide
       name: Decide
@@ -14,13 +20,16 @@ Example:
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping, Sequence
 
 import py_trees
 
 from behaviours.base import SemExpBehaviour
-from semexp_bt.decision import DecisionResult, decide
+from behaviours.spec import BuildContext, ParamSpec
+from semexp_bt.config import DecisionConfig
+from semexp_bt.decision import REASON_EMPTY, DecisionResult, decide
 from semexp_bt.decision_baselines import BASELINE_DECISIONS, select_subgoal
 from semexp_bt.types import NodeState
 
@@ -28,14 +37,43 @@ from semexp_bt.types import NodeState
 class Decide(SemExpBehaviour):
     READS = ("memory", "instruction")
     WRITES = ("subgoal", "decision")
+    PARAMS = {
+        "relax_when_exhausted": ParamSpec(
+            "bool",
+            doc="when no node passes tau_p, decide again over the never-reached nodes with tau_p = 0",
+            default=True,
+        ),
+    }
+
+    def __init__(
+        self,
+        name: str,
+        *,
+        relax_when_exhausted: bool = True,
+        context: BuildContext,
+        remap: Mapping[str, str] | None = None,
+    ) -> None:
+        super().__init__(name, context=context, remap=remap)
+        self.relax_when_exhausted = relax_when_exhausted
 
     def update(self) -> py_trees.common.Status:
         memory = self.read("memory")
         pose = self.services.robot.base_pose()
         config = self.services.config.decision
+        instruction = self.read("instruction")
         with self.timed("decision"):
             costs = memory.travel_costs(from_position_m=(pose.x_m, pose.y_m, 0.0), mode=config.travel_cost)
-            result = self._choose(nodes=memory.nodes(), instruction=self.read("instruction"), costs=costs)
+            nodes = memory.nodes()
+            result = self._choose(nodes=nodes, instruction=instruction, costs=costs, config=config)
+            if result.subgoal is None and result.reason == REASON_EMPTY and self.relax_when_exhausted:
+                unreached = [n for n in nodes if n.visits == 0 and not n.is_master and n.potential > 0.0]
+                relaxed = self._choose(
+                    nodes=unreached,
+                    instruction=instruction,
+                    costs=costs,
+                    config=dataclasses.replace(config, tau_p=0.0),
+                )
+                result = dataclasses.replace(relaxed, reason=f"relaxed: {relaxed.reason}")
         self.write("decision", result)
         self.write("subgoal", result.subgoal)
         self.services.decision_log.append(
@@ -67,7 +105,12 @@ class Decide(SemExpBehaviour):
         return py_trees.common.Status.SUCCESS
 
     def _choose(
-        self, *, nodes: Sequence[NodeState], instruction: str, costs: Mapping[int, float]
+        self,
+        *,
+        nodes: Sequence[NodeState],
+        instruction: str,
+        costs: Mapping[int, float],
+        config: DecisionConfig,
     ) -> DecisionResult:
         """Eq. 8-10, or the strategy's baseline choice (``services.strategy["decision"]``).
 
@@ -75,7 +118,6 @@ class Decide(SemExpBehaviour):
         other baselines (HOV-SG, nearest frontier, oracle) choose differently over the same candidates.
         """
         kind = self.services.strategy.get("decision", "utility")
-        config = self.services.config.decision
         if kind not in BASELINE_DECISIONS:
             return decide(nodes=nodes, instruction=instruction, relevance=self.services.relevance,
                           travel_costs=costs, config=config)  # fmt: skip

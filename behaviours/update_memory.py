@@ -25,9 +25,11 @@ import py_trees
 
 from behaviours.base import SemExpBehaviour
 from behaviours.spec import BuildContext, ParamSpec
-from semexp_bt.evidence import calibrate
+from semexp_bt.evidence import calibrate, candidate_box
 from semexp_bt.frontier import depth_frontiers
-from semexp_bt.geometry import back_project, robust_depth
+from semexp_bt.geometry import back_project, object_surface_depth
+
+Box = tuple[float, float, float, float]
 
 #: Label of a geometric frontier node (the relevance scorer sees it like a VLM's direction label).
 FRONTIER_LABEL = "unexplored area"
@@ -123,8 +125,11 @@ class UpdateMemory(SemExpBehaviour):
         self.frontier_confidence = frontier_confidence
         self.max_frontiers = max_frontiers
 
-    def _offers(self) -> list[tuple[tuple[float, float], str, float, bool]]:
-        """(pixel, label, confidence, is_place) for t*, the other candidates and the scene's landmarks.
+    def _offers(self) -> list[tuple[tuple[float, float], Box | None, str, float, bool]]:
+        """(pixel, box, label, confidence, is_place) for t*, the other candidates and the scene's landmarks.
+
+        ``box`` is the detection box or the VLM's region of an object offer (None for places), from which
+        :func:`~semexp_bt.geometry.object_surface_depth` takes the object's range.
 
         ``is_place`` marks offers that stand for a place to go to rather than an object to reach (an
         unexplored direction, a frontier): their node goes ``standoff_m`` in front of the surface the
@@ -137,10 +142,17 @@ class UpdateMemory(SemExpBehaviour):
         scene = self.read("scene_evidence")
         tau = self.services.config.arbitration.tau
         place_weight = 0.0 if scene is None else calibrate(scene.scene_confidence, tau) * self.landmark_weight
-        offers: list[tuple[tuple[float, float], str, float, bool]] = []
+        offers: list[tuple[tuple[float, float], Box | None, str, float, bool]] = []
         if target is not None and result is not None:
+            winner = result.winner
             offers.append(
-                (target.pixel_px, target.label, target.fused_confidence, target.kind == "direction")
+                (
+                    target.pixel_px,
+                    None if winner is None else candidate_box(winner, scene),
+                    target.label,
+                    target.fused_confidence,
+                    target.kind == "direction",
+                )
             )
             if self.offer_all_candidates:
                 for cand in result.candidates:
@@ -152,7 +164,15 @@ class UpdateMemory(SemExpBehaviour):
                         # none would pass the insertion gate; a direction the VLM named is a place worth
                         # as much as a landmark it named.
                         confidence = max(confidence, place_weight)
-                    offers.append((cand.pixel_px, cand.label, confidence, cand.kind == "direction"))
+                    offers.append(
+                        (
+                            cand.pixel_px,
+                            candidate_box(cand, scene),
+                            cand.label,
+                            confidence,
+                            cand.kind == "direction",
+                        )
+                    )
         if self.landmark_weight > 0.0 and scene is not None:
             # The VLM also names context objects that are not candidates for the target ("shelving rack",
             # "desk"); kept as landmark nodes they give the decision semantic places to explore, with the
@@ -163,7 +183,7 @@ class UpdateMemory(SemExpBehaviour):
                 if proposal.kind == "object" and tuple(proposal.point_px) not in candidate_pixels:
                     # An object, not a place: its node sits on it, so that a later instruction that asks
                     # for it ("find the red trash can" after the extinguisher) leads right up to it.
-                    offers.append((proposal.point_px, proposal.label, weight, False))
+                    offers.append((proposal.point_px, proposal.region_px, proposal.label, weight, False))
         observation = self.read("observation")
         if self.offer_frontiers and observation is not None:
             # Frontiers beside the VLM's directions: the gate of Eq. 6 merges one that lands on a node the
@@ -176,7 +196,7 @@ class UpdateMemory(SemExpBehaviour):
                 min_width_deg=self.frontier_min_width_deg,
             )
             for frontier in frontiers[: self.max_frontiers]:
-                offers.append((frontier.pixel_px, FRONTIER_LABEL, self.frontier_confidence, True))
+                offers.append((frontier.pixel_px, None, FRONTIER_LABEL, self.frontier_confidence, True))
         self.services.place_labels.add(FRONTIER_LABEL)
         if result is not None:
             self.services.place_labels.update(c.label for c in result.candidates if c.kind == "direction")
@@ -192,8 +212,8 @@ class UpdateMemory(SemExpBehaviour):
             if observation is not None:
                 patch = self.services.config.arbitration.depth_patch_px
                 offers = self._offers()
-                for pixel, label, confidence, is_place in offers:
-                    depth = robust_depth(observation.depth_m, pixel, patch)
+                for pixel, box, label, confidence, is_place in offers:
+                    depth = object_surface_depth(observation.depth_m, pixel, None if is_place else box, patch)
                     if is_place:
                         seen = self.direction_range_m if depth is None else depth
                         depth = max(

@@ -217,6 +217,20 @@ def scene_region(
     return box
 
 
+def candidate_box(
+    candidate: ScoredCandidate, scene: SceneEvidence | None
+) -> tuple[float, float, float, float] | None:
+    """The box that outlines a candidate's object: the detection box, else the region the VLM gave with
+    its proposal, else None (a bare VLM point, or a direction, which outlines no object)."""
+    if candidate.kind == "direction":
+        return None
+    if candidate.box_xyxy_px is not None:
+        return candidate.box_xyxy_px
+    if scene is not None and candidate.proposal_index is not None:
+        return scene.proposals[candidate.proposal_index].region_px
+    return None
+
+
 def _kappa_and_depth(
     depth: npt.NDArray[np.generic],
     pixels: FloatArray,

@@ -1,7 +1,8 @@
 """Episode sampler: a start pose for a scene, drawn from a seed, with its geodesic L*.
 
 A start is valid when the robot centre stands on a free cell of the inflated occupancy grid (see
-:mod:`sims.occupancy`), the goal's success region is reachable from it, and its L* (the oracle's
+:mod:`sims.occupancy`) at least :data:`~sims.robot_footprint.START_CLEARANCE_M` from every obstacle
+(so no start yaw puts the body in contact), the goal's success region is reachable from it, and its L* (the oracle's
 :meth:`~sims.geodesic.GeodesicOracle.distance_to_object` with the success radius) is at least the
 minimum geodesic distance. The minimum is the scene's ``min_geodesic_m`` (``scene.extra``, from its
 YAML data: 3.0 m for the large simulation scenes, less for the 30-50 m^2 real-world analogues) unless
@@ -9,7 +10,7 @@ the caller passes one.
 
 Seed rule: episode ``seed`` of a scene draws from
 ``numpy.random.default_rng(SeedSequence([crc32(scene.name), scene.seed, seed]))``: a cell uniformly among
-the free, reachable cells whose distance-field value is at least the minimum, a uniform position within
+the free, roomy, reachable cells whose distance-field value is at least the minimum, a uniform position within
 that cell, and a uniform yaw in [-pi, pi). A draw whose smoothed L* falls below the minimum is redrawn,
 up to ``max_tries`` times, then :class:`EpisodeSamplingError` is raised.
 """
@@ -26,6 +27,7 @@ import numpy as np
 from semexp_bt.scene import SceneSpec
 from semexp_bt.types import InvalidInputError, Pose2D
 from sims.geodesic import GeodesicOracle
+from sims.robot_footprint import START_CLEARANCE_M
 from sims.scenes._placement import DEFAULT_MIN_GEODESIC_M, GOAL_SUCCESS_RADIUS_M
 
 __all__ = [
@@ -121,7 +123,8 @@ def sample_episode(
     field = oracle.object_distance_field(scene.goal_object_id, success_radius_m=success_radius_m)
     # Field values over-estimate the smoothed L* by < 3 %, so this pre-filter loses almost no starts
     # and the exact check below keeps the guarantee.
-    rows, cols = np.nonzero(np.isfinite(field) & (field >= minimum))
+    roomy = oracle.occupancy.clearance_m >= START_CLEARANCE_M
+    rows, cols = np.nonzero(np.isfinite(field) & (field >= minimum) & roomy)
     if rows.size == 0:
         raise EpisodeSamplingError(
             f"scene '{scene.name}' (seed {scene.seed}): no free cell is {minimum:.2f} m or more from the goal"
@@ -137,7 +140,8 @@ def sample_episode(
         xy = np.round(corner + rng.uniform(0.01, 0.99, size=2) * geometry.resolution_m, 4)
         yaw = float(rng.uniform(-math.pi, math.pi))
         length = oracle.distance_to_object(xy, scene.goal_object_id, success_radius_m=success_radius_m)
-        if oracle.is_free(xy) and math.isfinite(length) and length >= minimum:
+        roomy_here = oracle.occupancy.clearance_m[geometry.cell_of(xy)] >= START_CLEARANCE_M
+        if oracle.is_free(xy) and roomy_here and math.isfinite(length) and length >= minimum:
             return Episode(
                 scene_name=scene.name,
                 scene_seed=scene.seed,

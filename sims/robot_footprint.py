@@ -15,3 +15,8 @@ ROBOT_RADIUS_M = 0.30
 #: camera mount. Parts of an object that start above it (a sign plate, a bus-shelter roof, a tree
 #: canopy) are walked under and are not rasterised into the occupancy grid.
 ROBOT_CLEARANCE_HEIGHT_M = 0.50
+
+#: Least distance (m) from a sampled start position to any obstacle: the kinematic body's half-diagonal
+#: (0.65 m x 0.30 m box, 0.36 m) plus the 0.1 m clearance of OASR, so that no episode starts in contact
+#: or already breaching the clearance, whatever its start yaw.
+START_CLEARANCE_M = 0.46

@@ -18,6 +18,7 @@ from semexp_bt.evidence import (
     arbitrate,
     calibrate,
     calibrate_array,
+    candidate_box,
     depth_feasibility,
     scene_region,
 )
@@ -180,6 +181,18 @@ def test_fused_candidate_carries_the_detection_label() -> None:
     vlm = dataclasses.replace(PROP_MUG, label="a coffee mug")
     result = run(scene=SceneEvidence((vlm,), 0.8), detections=[DET_A], is_aligned=is_mug)
     assert result.target is not None and result.target.label == TARGET
+
+
+def test_candidate_box_is_the_detection_box_else_the_vlm_region_else_none() -> None:
+    boxed = dataclasses.replace(PROP_MUG, label="a red cup", region_px=(10.0, 20.0, 30.0, 40.0))
+    bare = dataclasses.replace(PROP_MUG, label="a blue cup", point_px=(400.0, 300.0), region_px=None)
+    scene = SceneEvidence((PROP_MUG, boxed, bare, PROP_DOOR), 0.8)
+    result = run(scene=scene, detections=[DET_A], is_aligned=lambda label: label == TARGET or "cup" in label)
+    by_label = {c.label: c for c in result.candidates}
+    assert candidate_box(by_label[TARGET], scene) == DET_A.box_xyxy_px  # fused: the detection's box
+    assert candidate_box(by_label["a red cup"], scene) == (10.0, 20.0, 30.0, 40.0)
+    assert candidate_box(by_label["a blue cup"], scene) is None
+    assert candidate_box(by_label[PROP_DOOR.label], scene) is None  # a direction outlines no object
 
 
 def test_prior_multiplies_the_score() -> None:

@@ -342,3 +342,82 @@ def test_remapped_memory_key_is_what_the_behaviours_use(tmp_path: Path) -> None:
     print(py_trees.display.unicode_tree(tree.root, show_status=True))
     assert tree.root.status == py_trees.common.Status.SUCCESS
     assert board.subgoal is not None and board.subgoal.position_m[:2] == (1.0, 2.0)
+
+
+CONFIRM_TREE = (
+    "tree:\n  type: Sequence\n  name: Root\n  params: {memory: true}\n  children:\n"
+    "    - type: Perceive\n      name: Perceive\n"
+    "    - type: Arbitrate\n      name: Arbitrate\n"
+    "    - type: ConfirmTarget\n      name: Confirm\n"
+)
+
+
+@pytest.mark.parametrize(
+    ("extra_view_votes", "outcome", "views_taken"),
+    [
+        ((True, True), py_trees.common.Status.SUCCESS, 2),
+        ((False, True, True), py_trees.common.Status.SUCCESS, 3),
+        ((True, False, False, True), py_trees.common.Status.SUCCESS, 4),
+        ((False, False, False), py_trees.common.Status.FAILURE, 3),
+        ((True, False, False, False), py_trees.common.Status.FAILURE, 4),
+    ],
+)
+def test_confirmation_is_two_votes_out_of_at_most_four_further_views(
+    tmp_path: Path, extra_view_votes: tuple[bool, ...], outcome: py_trees.common.Status, views_taken: int
+) -> None:
+    """The target 0.8 m ahead; each further view either sees it or sees nothing. ConfirmTarget succeeds as
+    soon as two further views vote, and fails as soon as two votes can no longer be reached in four."""
+    tree_file = tmp_path / "confirm.yaml"
+    tree_file.write_text(CONFIRM_TREE)
+    target = Post(1, 0.8, 0.0, vlm_label="fire extinguisher", detector_label="fire extinguisher")
+    sees, blind = seeing([target], directions=False), seeing([], directions=False)
+    script = [sees] + [sees if vote else blind for vote in extra_view_votes]
+    robot = NullRobot(start_pose=Pose2D(0.0, 0.0, 0.0), posts=((1, 0.8, 0.0, 0.2, 0.6),))
+    services = make_services(robot, sees)
+    services.perception = ScriptedPerception(script, latency_s=1.0)
+    board = prepare_board(
+        instructions=["find the fire extinguisher"], start_pose=robot.base_pose(), memory=TopologicalMemory()
+    )
+    board.memory.add_master(position_m=(0.0, 0.0, 0.0), stamp_s=0.0)
+    tree = build_tree(mission_path=tree_file, services=services)
+    tree.setup()
+    while robot.now_s() < 30.0:
+        tree.tick()
+        if tree.root.status != py_trees.common.Status.RUNNING:
+            break
+        robot.advance(TICK_S)
+    print(py_trees.display.unicode_tree(tree.root, show_status=True))
+    assert tree.root.status == outcome
+    assert len(services.perception.requests) == 1 + views_taken
+    found = board.found_objects if outcome == py_trees.common.Status.SUCCESS else []
+    assert [f["label"] for f in found] == (["fire extinguisher"] if found else [])
+
+
+def test_decide_falls_back_to_unreached_nodes_when_every_potential_decayed(tmp_path: Path) -> None:
+    """Eq. 8 leaves no candidate (all potentials under tau_p); Decide then picks among never-reached nodes."""
+    tree_file = tmp_path / "decide.yaml"
+    tree_file.write_text("tree:\n  type: Decide\n  name: Decide\n")
+    robot = NullRobot(start_pose=Pose2D(0.0, 0.0, 0.0))
+    services = make_services(robot, seeing([]))
+    board = prepare_board(instructions=["find the fire extinguisher"], start_pose=robot.base_pose(),
+                          memory=TopologicalMemory())  # fmt: skip
+    memory = board.memory
+    memory.add_master(position_m=(0.0, 0.0, 0.0), stamp_s=0.0)
+    reached = memory.update(position_m=(1.0, 0.0, 0.3), label="unexplored area", confidence=0.6, stamp_s=0.0)
+    glimpsed = memory.update(position_m=(3.0, 1.0, 0.3), label="unexplored area", confidence=0.6, stamp_s=0.0)
+    memory.mark_visited(node_id=reached.node_id)
+    for node_id in (reached.node_id, glimpsed.node_id):
+        memory.scale_potential(node_id=node_id, factor=0.1)
+    tree = build_tree(mission_path=tree_file, services=services)
+    tree.tick()
+    print(py_trees.display.unicode_tree(tree.root, show_status=True))
+    assert tree.root.status == py_trees.common.Status.SUCCESS
+    assert board.subgoal.node_id == glimpsed.node_id
+    assert services.decision_log[-1]["reason"].startswith("relaxed: ")
+
+    strict = tmp_path / "strict.yaml"
+    strict.write_text("tree:\n  type: Decide\n  name: Decide\n  params: {relax_when_exhausted: false}\n")
+    tree = build_tree(mission_path=strict, services=services)
+    tree.tick()
+    assert tree.root.status == py_trees.common.Status.FAILURE
+    assert services.decision_log[-1]["reason"] == "empty candidate set"

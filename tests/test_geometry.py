@@ -19,6 +19,7 @@ from semexp_bt.geometry import (
     box_iou_matrix,
     clip_box,
     in_image,
+    object_surface_depth,
     patch_depth_stats,
     project_points,
     project_to_image,
@@ -307,6 +308,25 @@ def test_box_depth_stats_median_and_fraction() -> None:
     depth[60:81, 60:81] = np.nan
     median, fraction = box_depth_stats(depth, [(60, 60, 80, 80)])
     assert math.isnan(median[0]) and fraction[0] == 0.0
+
+
+def test_object_surface_depth_finds_a_thin_object_in_front_of_the_wall() -> None:
+    """A sign on a pole at 2 m in front of a wall at 6 m: the VLM's point lands on the wall beside it."""
+    depth = np.full((120, 160), 6.0)
+    depth[20:50, 70:100] = 2.0  # the sign plate
+    depth[50:110, 83:87] = 2.0  # its pole
+    box = (68.0, 18.0, 102.0, 108.0)
+    point_on_the_wall = (95.0, 80.0)
+    assert robust_depth(depth, point_on_the_wall, 5) == 6.0  # the patch median sees only the wall
+    assert object_surface_depth(depth, point_on_the_wall, box, 5) == pytest.approx(2.0)
+    # Without a box it is the patch median; an all-invalid box falls back to it too.
+    assert object_surface_depth(depth, point_on_the_wall, None, 5) == 6.0
+    holes = depth.copy()
+    holes[18:109, 68:103] = 0.0
+    holes[78:83, 93:98] = 6.0
+    assert object_surface_depth(holes, point_on_the_wall, box, 5) == 6.0
+    with pytest.raises(InvalidInputError, match="box_xyxy"):
+        object_surface_depth(depth, point_on_the_wall, (10.0, 10.0, 5.0, 20.0), 5)
 
 
 # ---------------------------------------------------------------------------------------------------------
