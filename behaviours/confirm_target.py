@@ -20,7 +20,7 @@ fooled the detector once is not trusted twice), while a real target missed once 
 Example:
     - type: ConfirmTarget
       name: Confirm
-      params: {confirm_radius_m: 1.0, extra_views: 2, max_extra_views: 4}
+      params: {confirm_radius_m: 1.0, extra_views: 3, max_extra_views: 4}
 """
 
 from __future__ import annotations
@@ -77,7 +77,7 @@ class ConfirmTarget(SemExpBehaviour):
             le=1.0,
         ),
         "extra_views": ParamSpec(
-            "int", doc="further views that must vote for the target before success", default=2, ge=0, le=10
+            "int", doc="further views that must vote for the target before success", default=3, ge=0, le=10
         ),
         "max_extra_views": ParamSpec(
             "int",
@@ -120,7 +120,7 @@ class ConfirmTarget(SemExpBehaviour):
         *,
         confirm_radius_m: float = 1.0,
         min_score: float = 0.05,
-        extra_views: int = 2,
+        extra_views: int = 3,
         max_extra_views: int = 4,
         consistency_radius_m: float = 0.8,
         align_threshold: float = 0.9,

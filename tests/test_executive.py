@@ -355,18 +355,18 @@ CONFIRM_TREE = (
 @pytest.mark.parametrize(
     ("extra_view_votes", "outcome", "views_taken"),
     [
-        ((True, True), py_trees.common.Status.SUCCESS, 2),
-        ((False, True, True), py_trees.common.Status.SUCCESS, 3),
-        ((True, False, False, True), py_trees.common.Status.SUCCESS, 4),
-        ((False, False, False), py_trees.common.Status.FAILURE, 3),
-        ((True, False, False, False), py_trees.common.Status.FAILURE, 4),
+        ((True, True, True), py_trees.common.Status.SUCCESS, 3),
+        ((False, True, True, True), py_trees.common.Status.SUCCESS, 4),
+        ((True, True, False, True), py_trees.common.Status.SUCCESS, 4),
+        ((False, False), py_trees.common.Status.FAILURE, 2),
+        ((True, True, False, False), py_trees.common.Status.FAILURE, 4),
     ],
 )
-def test_confirmation_is_two_votes_out_of_at_most_four_further_views(
+def test_confirmation_is_three_votes_out_of_at_most_four_further_views(
     tmp_path: Path, extra_view_votes: tuple[bool, ...], outcome: py_trees.common.Status, views_taken: int
 ) -> None:
     """The target 0.8 m ahead; each further view either sees it or sees nothing. ConfirmTarget succeeds as
-    soon as two further views vote, and fails as soon as two votes can no longer be reached in four."""
+    soon as three further views vote, and fails as soon as three votes can no longer be reached in four."""
     tree_file = tmp_path / "confirm.yaml"
     tree_file.write_text(CONFIRM_TREE)
     target = Post(1, 0.8, 0.0, vlm_label="fire extinguisher", detector_label="fire extinguisher")
