@@ -1,11 +1,11 @@
 """Simulated missions are tests: the paper's mission on the MuJoCo backend, kinematic fidelity.
 
-- The episodes the mission solves today (docs/results_missions.md: 1 of 30 over the ten scenes x seeds
-  0-2) are regression tests: the mission declares success next to the goal object (within r_s of its
-  footprint) and what it reached is of the instructed category. The issue asks for one solved seed in
-  every scene; that is not met yet, and the sweep in docs/results_missions.md says where it stands.
+- Episodes the mission solves with the committed code are regression tests: the mission declares
+  success next to the goal object (within r_s of its footprint) and what it reached is of the instructed
+  category. They come from the sweep in docs/results_missions.md. The issue asks for one solved seed in
+  every scene; that is not met yet (solved so far: road and sidewalk), and the sweep says where it stands.
 - With the goal hidden (sunk under the floor, so no camera can see it), the robot explores among the
-  distractors and never declares success: calibrated arbitration and three-view confirmation do not
+  distractors and never declares success: calibrated arbitration and the 3-of-4 confirmation vote do not
   accept a red trash can for an extinguisher, a grey chair for a black chair, a toy robot dog for a
   quadruped robot.
 
@@ -26,7 +26,7 @@ from semexp_bt.runner import RunOptions, run_mission
 MISSION = Path(__file__).resolve().parents[1] / "trees" / "object_search.yaml"
 
 #: (scene, seed) episodes the mission solves (from the sweep in docs/results_missions.md).
-SOLVED_EPISODES: list[tuple[str, int]] = [("showroom", 1)]
+SOLVED_EPISODES: list[tuple[str, int]] = [("road", 1), ("sidewalk", 2)]
 
 
 def _summary(record: dict) -> str:
