@@ -30,6 +30,8 @@ from semexp_bt.frontier import depth_frontiers
 from semexp_bt.geometry import back_project, object_surface_depth
 
 Box = tuple[float, float, float, float]
+#: One offer to the memory: (pixel, box of an object or None, label, confidence, is_place).
+Offer = tuple[tuple[float, float], Box | None, str, float, bool]
 
 #: Label of a geometric frontier node (the relevance scorer sees it like a VLM's direction label).
 FRONTIER_LABEL = "unexplored area"
@@ -125,7 +127,7 @@ class UpdateMemory(SemExpBehaviour):
         self.frontier_confidence = frontier_confidence
         self.max_frontiers = max_frontiers
 
-    def _offers(self) -> list[tuple[tuple[float, float], Box | None, str, float, bool]]:
+    def _offers(self) -> list[Offer]:
         """(pixel, box, label, confidence, is_place) for t*, the other candidates and the scene's landmarks.
 
         ``box`` is the detection box or the VLM's region of an object offer (None for places), from which
@@ -142,7 +144,7 @@ class UpdateMemory(SemExpBehaviour):
         scene = self.read("scene_evidence")
         tau = self.services.config.arbitration.tau
         place_weight = 0.0 if scene is None else calibrate(scene.scene_confidence, tau) * self.landmark_weight
-        offers: list[tuple[tuple[float, float], Box | None, str, float, bool]] = []
+        offers: list[Offer] = []
         if target is not None and result is not None:
             winner = result.winner
             offers.append(

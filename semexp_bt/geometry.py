@@ -456,6 +456,25 @@ def patch_depth_stats(
     return _masked_median(values, valid), valid.sum(axis=1) / n_inside
 
 
+def _box_depth_samples(
+    depth: npt.NDArray[np.generic], boxes: FloatArray, samples_per_side: int
+) -> tuple[FloatArray, npt.NDArray[np.bool_]]:
+    """Depths on a ``samples_per_side`` squared grid inside each box (corners included, indices clipped to
+    the image), ``(K, samples_per_side ** 2)``, with the mask of the valid (finite, > 0) ones."""
+    if samples_per_side < 1:
+        raise InvalidInputError(f"samples_per_side must be at least 1, got {samples_per_side}")
+    height, width = depth.shape
+    steps = np.linspace(0.0, 1.0, int(samples_per_side))
+    us = boxes[:, 0, None] + (boxes[:, 2] - boxes[:, 0])[:, None] * steps
+    vs = boxes[:, 1, None] + (boxes[:, 3] - boxes[:, 1])[:, None] * steps
+    cols = fast_clip(np.floor(us + 0.5).astype(np.int64), 0, width - 1)
+    rows = fast_clip(np.floor(vs + 0.5).astype(np.int64), 0, height - 1)
+    values = _gather(depth, rows[:, :, None], cols[:, None, :]).reshape(len(boxes), -1)
+    with np.errstate(invalid="ignore"):
+        valid = np.isfinite(values) & (values > 0.0)
+    return values, valid
+
+
 def box_depth_stats(
     depth_m: npt.ArrayLike, boxes_xyxy: npt.ArrayLike, samples_per_side: int = BOX_DEPTH_SAMPLES_PER_SIDE
 ) -> tuple[FloatArray, FloatArray]:
@@ -470,17 +489,7 @@ def box_depth_stats(
     """
     depth = _check_depth_image(depth_m)
     boxes = check_boxes("boxes_xyxy", boxes_xyxy)
-    if samples_per_side < 1:
-        raise InvalidInputError(f"samples_per_side must be at least 1, got {samples_per_side}")
-    height, width = depth.shape
-    steps = np.linspace(0.0, 1.0, int(samples_per_side))
-    us = boxes[:, 0, None] + (boxes[:, 2] - boxes[:, 0])[:, None] * steps
-    vs = boxes[:, 1, None] + (boxes[:, 3] - boxes[:, 1])[:, None] * steps
-    cols = fast_clip(np.floor(us + 0.5).astype(np.int64), 0, width - 1)
-    rows = fast_clip(np.floor(vs + 0.5).astype(np.int64), 0, height - 1)
-    values = _gather(depth, rows[:, :, None], cols[:, None, :]).reshape(len(boxes), -1)
-    with np.errstate(invalid="ignore"):
-        valid = np.isfinite(values) & (values > 0.0)
+    values, valid = _box_depth_samples(depth, boxes, samples_per_side)
     return _masked_median(values, valid), valid.mean(axis=1)
 
 
@@ -527,18 +536,8 @@ def object_surface_depth(
     if box_xyxy is None:
         return robust_depth(depth_m, pixel, patch_px)
     depth = _check_depth_image(depth_m)
-    boxes = check_boxes("box_xyxy", [box_xyxy])
-    steps = np.linspace(0.0, 1.0, BOX_DEPTH_SAMPLES_PER_SIDE)
-    height, width = depth.shape
-    cols = fast_clip(
-        np.floor(boxes[0, 0] + (boxes[0, 2] - boxes[0, 0]) * steps + 0.5).astype(np.int64), 0, width - 1
-    )
-    rows = fast_clip(
-        np.floor(boxes[0, 1] + (boxes[0, 3] - boxes[0, 1]) * steps + 0.5).astype(np.int64), 0, height - 1
-    )
-    values = depth[rows[:, None], cols[None, :]].ravel()
-    with np.errstate(invalid="ignore"):
-        values = values[np.isfinite(values) & (values > 0.0)]
+    values, valid = _box_depth_samples(depth, check_boxes("box_xyxy", [box_xyxy]), BOX_DEPTH_SAMPLES_PER_SIDE)
+    values = values[valid]
     if values.size == 0:
         return robust_depth(depth_m, pixel, patch_px)
     return float(np.percentile(values, percentile))
