@@ -311,6 +311,25 @@ def _read_meta(out_dir: Path) -> dict[str, Any]:
     return json.loads(path.read_text()) if path.is_file() else {}
 
 
+def false_successes(rows: Sequence[Mapping[str, Any]]) -> list[str]:
+    """Keys of finished episodes that declared success but did not end within r_s of the goal (the robot
+    confirmed something else: a distractor, or the goal from too far)."""
+    out = []
+    for r in ok_rows(rows):
+        radius = float(r.get("success_radius_m", metrics.DEFAULT_SUCCESS_RADIUS_M))
+        record = to_episode_record(r)
+        if record.success_declared and not metrics.success(record, success_radius_m=radius):
+            out.append(str(r["key"]))
+    return out
+
+
+def wall_per_sim_second(rows: Sequence[Mapping[str, Any]]) -> float | None:
+    """Total wall time over total simulated time of the finished episodes, or None without either."""
+    good = [r for r in ok_rows(rows) if r.get("wall_time_s") is not None and r.get("sim_time_s")]
+    sim = sum(float(r["sim_time_s"]) for r in good)
+    return sum(float(r["wall_time_s"]) for r in good) / sim if sim > 0.0 else None
+
+
 def write_report(
     out_dir: Path, *, rows: Sequence[Mapping[str, Any]] | None = None, plots: bool = True
 ) -> Path:
@@ -352,6 +371,17 @@ def write_report(
             "",
             metric_table(summaries, metric, scenes=scenes, strategies=strategies),
         ]
+    wrong = false_successes(rows)
+    parts += [
+        "",
+        "## Success declared away from the goal",
+        "",
+        f"{len(wrong)} of {len(ok_rows(rows))} episodes.",
+    ]
+    parts += [f"- `{key}`" for key in wrong]
+    ratio = wall_per_sim_second(rows)
+    if ratio is not None:
+        parts += ["", f"Wall time per simulated second: {ratio:.3f} s (all finished episodes)."]
     latency = latency_table(rows)
     if latency:
         parts += ["", "## Per-stage latency and rate", "", latency_markdown(latency)]

@@ -160,6 +160,14 @@ def test_write_report_writes_tables_plots_and_failures(tmp_path: Path) -> None:
     for name in ("bars_sr.png", "bars_spl.png", "spl_distribution.png"):
         assert (tmp_path / "plots" / name).stat().st_size > 1000
         assert f"plots/{name}" in text
+    # Seed 3 declared nothing; seeds 0-2 declared within r_s: no false success yet.
+    assert "## Success declared away from the goal\n\n0 of 4 episodes." in text
+    rows[3]["success_declared"] = True  # now seed 3 declares success 3 m from the goal
+    for r, wall_s in zip(rows, (1.0, 2.0, 3.0, 4.0), strict=False):
+        r["wall_time_s"] = wall_s
+    text = write_report(tmp_path, rows=rows, plots=False).read_text()
+    assert "1 of 4 episodes.\n- `office/3/ours/kinematic/abc`" in text
+    assert "Wall time per simulated second: 0.250 s" in text  # 10 s of wall over 40 s simulated
 
 
 def test_write_report_without_rows_is_a_clear_error(tmp_path: Path) -> None:
