@@ -17,6 +17,14 @@ to the robot and inside the camera's view has its exploration potential scaled b
 ``reject_potential_factor``, so the decision does not send the robot straight back (a distractor that
 fooled the detector once is not trusted twice), while a real target missed once can still be revisited.
 
+Label agreement: every view the behaviour inspects (first and further, over the whole mission) also
+records what the VLM and the detector *called* the objects in front of the robot: a name-the-target
+mark at a voting point, and a name-something-else mark at each object proposal or candidate whose label
+is not the instructed one. Before declaring success, the marks within ``label_agreement_radius_m`` of
+the target must name the target at least ``min_label_agreement`` of the time. A plain shelf that the VLM
+calls "shelf" in half its views and "bucket shelf" in the other half collects three votes now and
+then; it never collects a majority of 0.7. A real bucket shelf is named so in most views.
+
 Example:
     - type: ConfirmTarget
       name: Confirm
@@ -105,6 +113,20 @@ class ConfirmTarget(SemExpBehaviour):
             ge=0.0,
             le=1.0,
         ),
+        "min_label_agreement": ParamSpec(
+            "float",
+            doc="least share of the object names recorded at the target's spot, over the mission, that "
+            "name the instructed object (0: no label-agreement check)",
+            default=0.7,
+            ge=0.0,
+            le=1.0,
+        ),
+        "label_agreement_radius_m": ParamSpec(
+            "float",
+            doc="names recorded this close to the target's point count toward the agreement, m",
+            default=0.5,
+            gt=0.0,
+        ),
         "reject_radius_m": ParamSpec(
             "float",
             doc="only aligned nodes this close to the robot and inside the camera's view are "
@@ -126,6 +148,8 @@ class ConfirmTarget(SemExpBehaviour):
         align_threshold: float = 0.9,
         reject_potential_factor: float = 0.5,
         reject_radius_m: float = 1.2,
+        min_label_agreement: float = 0.7,
+        label_agreement_radius_m: float = 0.5,
         context: BuildContext,
         remap: Mapping[str, str] | None = None,
     ) -> None:
@@ -142,6 +166,10 @@ class ConfirmTarget(SemExpBehaviour):
         self.align_threshold = align_threshold
         self.reject_potential_factor = reject_potential_factor
         self.reject_radius_m = reject_radius_m
+        self.min_label_agreement = min_label_agreement
+        self.label_agreement_radius_m = label_agreement_radius_m
+        #: (x, y, names the target) for every object name heard near the robot, over the mission.
+        self._names: list[tuple[float, float, bool]] = []
         self._first: tuple[str, np.ndarray] | None = None
         self._votes = 0
         self._views = 0
@@ -163,28 +191,53 @@ class ConfirmTarget(SemExpBehaviour):
             return None
         pose = self.services.robot.base_pose()
         patch = self.services.config.arbitration.depth_patch_px
-        best: tuple[float, str, np.ndarray] | None = None
-        for candidate in arbitration.candidates:
-            if candidate.kind == "direction" or candidate.score < self.min_score:
-                continue
-            if not self._aligned(candidate.label):
-                continue
-            depth = object_surface_depth(
-                observation.depth_m, candidate.pixel_px, candidate_box(candidate, scene), patch
-            )
+
+        def nearby_point(pixel, box) -> np.ndarray | None:  # type: ignore[no-untyped-def]
+            depth = object_surface_depth(observation.depth_m, pixel, box, patch)
             if depth is None:
-                continue
+                return None
             point = back_project(
-                pixel_px=candidate.pixel_px,
+                pixel_px=pixel,
                 depth_m=depth,
                 intrinsics=observation.intrinsics,
                 camera_to_world=observation.camera_to_world,
             )
             if math.hypot(point[0] - pose.x_m, point[1] - pose.y_m) > self.confirm_radius_m:
+                return None
+            return point
+
+        best: tuple[float, str, np.ndarray] | None = None
+        for candidate in arbitration.candidates:
+            if candidate.kind == "direction":
                 continue
-            if best is None or candidate.score > best[0]:
+            aligned = self._aligned(candidate.label)
+            if aligned and candidate.score < self.min_score:
+                continue
+            point = nearby_point(candidate.pixel_px, candidate_box(candidate, scene))
+            if point is None:
+                continue
+            self._names.append((float(point[0]), float(point[1]), aligned))
+            if aligned and (best is None or candidate.score > best[0]):
                 best = (candidate.score, candidate.label, point)
+        if scene is not None:
+            # Names the VLM gave that no candidate carries (the arbitration keeps only target-like labels).
+            carried = {c.label for c in arbitration.candidates}
+            for proposal in scene.proposals:
+                if proposal.kind != "object" or self._aligned(proposal.label) or proposal.label in carried:
+                    continue
+                point = nearby_point(proposal.point_px, proposal.region_px)
+                if point is not None:
+                    self._names.append((float(point[0]), float(point[1]), False))
         return None if best is None else (best[1], best[2])
+
+    def _label_agreement(self, point: np.ndarray) -> tuple[int, int]:
+        """(names of the target, all names) recorded within ``label_agreement_radius_m`` of ``point``."""
+        near = [
+            names_target
+            for x, y, names_target in self._names
+            if math.hypot(x - point[0], y - point[1]) <= self.label_agreement_radius_m
+        ]
+        return sum(near), len(near)
 
     def _reject(self, why: str) -> py_trees.common.Status:
         memory = self.read("memory")
@@ -258,6 +311,11 @@ class ConfirmTarget(SemExpBehaviour):
 
     def _succeed(self) -> py_trees.common.Status:
         label, point = self._first
+        agreeing, heard = self._label_agreement(point)
+        if heard and agreeing < self.min_label_agreement * heard:
+            return self._reject(
+                f"{label!r} has the votes, but only {agreeing} of {heard} names heard at its spot name it"
+            )
         found = list(self.read("found_objects", []))
         pose = self.services.robot.base_pose()
         found.append(

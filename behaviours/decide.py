@@ -11,7 +11,11 @@ When Eq. 8 leaves no candidate (every node's potential has decayed under tau_p) 
 ``relax_when_exhausted`` is set, it decides once more over the nodes the robot has never reached, with
 tau_p = 0, and says so in the reason ("relaxed: ..."). In a small room the decay of Eq. 7 can otherwise
 empty the candidate set while places the robot only glimpsed remain; the paper does not say what to do
-then, and turning on the spot until the budget runs out is the worst answer.
+then, and turning on the spot until the budget runs out is the worst answer. Each node is chosen this
+way at most once per mission: a relaxed choice the robot failed to reach (its potential was lowered by
+the recovery, never raised) would otherwise be chosen again and again, and the sweep showed robots
+spending half their budget shuttling toward one unreachable node. Once every never-reached node has
+had its chance, Decide fails and the tree looks around instead.
 
 Example:
     - type: Decide
@@ -40,7 +44,8 @@ class Decide(SemExpBehaviour):
     PARAMS = {
         "relax_when_exhausted": ParamSpec(
             "bool",
-            doc="when no node passes tau_p, decide again over the never-reached nodes with tau_p = 0",
+            doc="when no node passes tau_p, decide again over the never-reached nodes with tau_p = 0 "
+            "(each node at most once per mission)",
             default=True,
         ),
     }
@@ -55,6 +60,8 @@ class Decide(SemExpBehaviour):
     ) -> None:
         super().__init__(name, context=context, remap=remap)
         self.relax_when_exhausted = relax_when_exhausted
+        # Per tree, so per mission: a new mission builds a new tree.
+        self._relaxed_choices: set[int] = set()
 
     def update(self) -> py_trees.common.Status:
         memory = self.read("memory")
@@ -66,7 +73,14 @@ class Decide(SemExpBehaviour):
             nodes = memory.nodes()
             result = self._choose(nodes=nodes, instruction=instruction, costs=costs, config=config)
             if result.subgoal is None and result.reason == REASON_EMPTY and self.relax_when_exhausted:
-                unreached = [n for n in nodes if n.visits == 0 and not n.is_master and n.potential > 0.0]
+                unreached = [
+                    n
+                    for n in nodes
+                    if n.visits == 0
+                    and not n.is_master
+                    and n.potential > 0.0
+                    and n.node_id not in self._relaxed_choices
+                ]
                 relaxed = self._choose(
                     nodes=unreached,
                     instruction=instruction,
@@ -74,6 +88,8 @@ class Decide(SemExpBehaviour):
                     config=dataclasses.replace(config, tau_p=0.0),
                 )
                 result = dataclasses.replace(relaxed, reason=f"relaxed: {relaxed.reason}")
+                if result.subgoal is not None:
+                    self._relaxed_choices.add(result.subgoal.node_id)
         self.write("decision", result)
         self.write("subgoal", result.subgoal)
         self.services.decision_log.append(

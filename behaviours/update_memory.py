@@ -9,6 +9,12 @@ landmarks are places to go, not objects to touch: their node stands ``standoff_m
 surface the pixel sees, at most ``direction_range_m`` ahead. Then the surroundings of the robot count as observed (Eq. 7 decay), and a subgoal the
 robot now stands at is marked visited. Always SUCCESS; rejected offers are reported in the feedback.
 
+Revival: a candidate for the instructed object whose raw Eq. 2 score reaches ``revive_min_score`` (both
+sources agree on it, not a lone weak detection) raises the potential of the node it merged into back to
+that node's confidence, at most ``max_revivals`` times per node. Without it, an object node demoted once
+(the robot was blocked on the way) stays under tau_p however clearly the robot sees the object again;
+the bound keeps an unreachable object from pulling the robot back for ever.
+
 Example:
     - type: UpdateMemory
       name: UpdateMemory
@@ -30,8 +36,9 @@ from semexp_bt.frontier import depth_frontiers
 from semexp_bt.geometry import back_project, object_surface_depth
 
 Box = tuple[float, float, float, float]
-#: One offer to the memory: (pixel, box of an object or None, label, confidence, is_place).
-Offer = tuple[tuple[float, float], Box | None, str, float, bool]
+#: One offer to the memory: (pixel, box of an object or None, label, confidence, is_place, raw Eq. 2
+#: score of the arbitration candidate behind it or None).
+Offer = tuple[tuple[float, float], Box | None, str, float, bool, float | None]
 
 #: Label of a geometric frontier node (the relevance scorer sees it like a VLM's direction label).
 FRONTIER_LABEL = "unexplored area"
@@ -91,6 +98,15 @@ class UpdateMemory(SemExpBehaviour):
             ge=0.0,
             le=1.0,
         ),
+        "revive_min_score": ParamSpec(
+            "float",
+            doc="least raw Eq. 2 score of an instructed-object candidate that revives the potential of "
+            "the node it merges into (1: never revive)",
+            default=0.15,
+            ge=0.0,
+            le=1.0,
+        ),
+        "max_revivals": ParamSpec("int", doc="most revivals of one node per mission", default=2, ge=0),
     }
 
     def __init__(
@@ -108,6 +124,8 @@ class UpdateMemory(SemExpBehaviour):
         frontier_confidence: float = 0.5,
         max_frontiers: int = 2,
         map_frontier_confidence: float = 0.6,
+        revive_min_score: float = 0.15,
+        max_revivals: int = 2,
         context: BuildContext,
         remap: Mapping[str, str] | None = None,
     ) -> None:
@@ -126,6 +144,9 @@ class UpdateMemory(SemExpBehaviour):
         self.frontier_min_width_deg = frontier_min_width_deg
         self.frontier_confidence = frontier_confidence
         self.max_frontiers = max_frontiers
+        self.revive_min_score = revive_min_score
+        self.max_revivals = max_revivals
+        self._revivals: dict[int, int] = {}
 
     def _offers(self) -> list[Offer]:
         """(pixel, box, label, confidence, is_place) for t*, the other candidates and the scene's landmarks.
@@ -154,6 +175,7 @@ class UpdateMemory(SemExpBehaviour):
                     target.label,
                     target.fused_confidence,
                     target.kind == "direction",
+                    None if winner is None else winner.score,
                 )
             )
             if self.offer_all_candidates:
@@ -173,6 +195,7 @@ class UpdateMemory(SemExpBehaviour):
                             cand.label,
                             confidence,
                             cand.kind == "direction",
+                            cand.score,
                         )
                     )
         if self.landmark_weight > 0.0 and scene is not None:
@@ -185,7 +208,7 @@ class UpdateMemory(SemExpBehaviour):
                 if proposal.kind == "object" and tuple(proposal.point_px) not in candidate_pixels:
                     # An object, not a place: its node sits on it, so that a later instruction that asks
                     # for it ("find the red trash can" after the extinguisher) leads right up to it.
-                    offers.append((proposal.point_px, proposal.region_px, proposal.label, weight, False))
+                    offers.append((proposal.point_px, proposal.region_px, proposal.label, weight, False, None))
         observation = self.read("observation")
         if self.offer_frontiers and observation is not None:
             # Frontiers beside the VLM's directions: the gate of Eq. 6 merges one that lands on a node the
@@ -198,7 +221,7 @@ class UpdateMemory(SemExpBehaviour):
                 min_width_deg=self.frontier_min_width_deg,
             )
             for frontier in frontiers[: self.max_frontiers]:
-                offers.append((frontier.pixel_px, None, FRONTIER_LABEL, self.frontier_confidence, True))
+                offers.append((frontier.pixel_px, None, FRONTIER_LABEL, self.frontier_confidence, True, None))
         self.services.place_labels.add(FRONTIER_LABEL)
         if result is not None:
             self.services.place_labels.update(c.label for c in result.candidates if c.kind == "direction")
@@ -214,7 +237,7 @@ class UpdateMemory(SemExpBehaviour):
             if observation is not None:
                 patch = self.services.config.arbitration.depth_patch_px
                 offers = self._offers()
-                for pixel, box, label, confidence, is_place in offers:
+                for pixel, box, label, confidence, is_place, score in offers:
                     depth = object_surface_depth(observation.depth_m, pixel, None if is_place else box, patch)
                     if is_place:
                         seen = self.direction_range_m if depth is None else depth
@@ -240,6 +263,8 @@ class UpdateMemory(SemExpBehaviour):
                         stamp_s=self.now_s(),
                     )
                     outcomes.append(f"{label}: {result.action}")
+                    if result.action == "merged" and score is not None and not is_place:
+                        outcomes += self._revive(memory, result.node_id, label, score)
             memory.observe_surroundings(robot_position_m=robot_xyz)
             local_map = self.read("local_map")
             if local_map is not None:
@@ -251,6 +276,18 @@ class UpdateMemory(SemExpBehaviour):
                     memory.mark_visited(node_id=subgoal.node_id)
         self.feedback_message = f"{len(memory)} nodes; " + ", ".join(outcomes[:4])
         return py_trees.common.Status.SUCCESS
+
+    def _revive(self, memory, node_id: int, label: str, score: float) -> list[str]:  # type: ignore[no-untyped-def]
+        """Revival (see the module docstring): strong evidence for the instructed object restores its node."""
+        if score < self.revive_min_score or self._revivals.get(node_id, 0) >= self.max_revivals:
+            return []
+        if not self.names_instructed_object(label, threshold=0.9):
+            return []
+        state = memory.node(node_id)
+        if not memory.raise_potential(node_id=node_id, at_least=state.confidence):
+            return []
+        self._revivals[node_id] = self._revivals.get(node_id, 0) + 1
+        return [f"{label}: revived node {node_id}"]
 
     def _instructed(self, label: str) -> bool:
         """Whether ``label`` names what the instruction asks for (only such evidence may relabel a node)."""

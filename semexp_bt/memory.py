@@ -556,6 +556,18 @@ class TopologicalMemory:
         attrs["potential"] = _clamp_unit(attrs["potential"] * f)
         self._touch(n)
 
+    def raise_potential(self, *, node_id: int, at_least: float) -> bool:
+        """Raise a node's potential to ``at_least`` in [0, 1] if it is lower (new evidence revives a node
+        that decay or recovery had spent). Returns whether the potential changed."""
+        n = self._require_node(node_id)
+        floor = _as_unit("at_least", at_least)
+        attrs = self._attrs[n]
+        if attrs["potential"] >= floor:
+            return False
+        attrs["potential"] = floor
+        self._touch(n)
+        return True
+
     # ------------------------------------------------------------------ maintenance
 
     def maintain(self, *, full: bool = False) -> MaintenanceReport:

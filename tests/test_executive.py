@@ -352,6 +352,23 @@ CONFIRM_TREE = (
 )
 
 
+def confirm_tree_facing_a_post(tmp_path: Path, script: list, instruction: str):  # type: ignore[no-untyped-def]
+    """CONFIRM_TREE on a robot facing one post 0.8 m ahead, with scripted perception answers in order.
+
+    Returns (tree, robot, services, board); the tree is set up, not yet ticked.
+    """
+    tree_file = tmp_path / "confirm.yaml"
+    tree_file.write_text(CONFIRM_TREE)
+    robot = NullRobot(start_pose=Pose2D(0.0, 0.0, 0.0), posts=((1, 0.8, 0.0, 0.2, 0.6),))
+    services = make_services(robot, script[0])
+    services.perception = ScriptedPerception(script, latency_s=1.0)
+    board = prepare_board(instructions=[instruction], start_pose=robot.base_pose(), memory=TopologicalMemory())
+    board.memory.add_master(position_m=(0.0, 0.0, 0.0), stamp_s=0.0)
+    tree = build_tree(mission_path=tree_file, services=services)
+    tree.setup()
+    return tree, robot, services, board
+
+
 @pytest.mark.parametrize(
     ("extra_view_votes", "outcome", "views_taken"),
     [
@@ -367,20 +384,10 @@ def test_confirmation_is_three_votes_out_of_at_most_four_further_views(
 ) -> None:
     """The target 0.8 m ahead; each further view either sees it or sees nothing. ConfirmTarget succeeds as
     soon as three further views vote, and fails as soon as three votes can no longer be reached in four."""
-    tree_file = tmp_path / "confirm.yaml"
-    tree_file.write_text(CONFIRM_TREE)
     target = Post(1, 0.8, 0.0, vlm_label="fire extinguisher", detector_label="fire extinguisher")
     sees, blind = seeing([target], directions=False), seeing([], directions=False)
     script = [sees] + [sees if vote else blind for vote in extra_view_votes]
-    robot = NullRobot(start_pose=Pose2D(0.0, 0.0, 0.0), posts=((1, 0.8, 0.0, 0.2, 0.6),))
-    services = make_services(robot, sees)
-    services.perception = ScriptedPerception(script, latency_s=1.0)
-    board = prepare_board(
-        instructions=["find the fire extinguisher"], start_pose=robot.base_pose(), memory=TopologicalMemory()
-    )
-    board.memory.add_master(position_m=(0.0, 0.0, 0.0), stamp_s=0.0)
-    tree = build_tree(mission_path=tree_file, services=services)
-    tree.setup()
+    tree, robot, services, board = confirm_tree_facing_a_post(tmp_path, script, "find the fire extinguisher")
     while robot.now_s() < 30.0:
         tree.tick()
         if tree.root.status != py_trees.common.Status.RUNNING:
@@ -415,9 +422,101 @@ def test_decide_falls_back_to_unreached_nodes_when_every_potential_decayed(tmp_p
     assert board.subgoal.node_id == glimpsed.node_id
     assert services.decision_log[-1]["reason"].startswith("relaxed: ")
 
+    # The relaxed choice was not reached (its potential only fell): it is not chosen a second time.
+    memory.scale_potential(node_id=glimpsed.node_id, factor=0.2)
+    tree.tick()
+    assert tree.root.status == py_trees.common.Status.FAILURE
+    assert board.subgoal is None
+    assert services.decision_log[-1]["reason"] == "relaxed: empty candidate set"
+
     strict = tmp_path / "strict.yaml"
     strict.write_text("tree:\n  type: Decide\n  name: Decide\n  params: {relax_when_exhausted: false}\n")
     tree = build_tree(mission_path=strict, services=services)
     tree.tick()
     assert tree.root.status == py_trees.common.Status.FAILURE
     assert services.decision_log[-1]["reason"] == "empty candidate set"
+
+
+REVIVE_TREE = """
+tree:
+  type: Sequence
+  name: Look
+  params: {memory: true}
+  children:
+    - {type: Perceive, name: Perceive}
+    - {type: Arbitrate, name: Arbitrate}
+    - {type: UpdateMemory, name: UpdateMemory, params: {max_revivals: 2}}
+"""
+
+
+@pytest.mark.parametrize(
+    ("vlm_label", "detector_confidence", "revivals"),
+    [("fire extinguisher", 0.9, 2), ("red box", 0.4, 0)],
+    ids=["both-sources-agree", "one-weak-detection"],
+)
+def test_clear_sight_of_the_target_revives_its_demoted_node_at_most_twice(
+    tmp_path: Path, vlm_label: str, detector_confidence: float, revivals: int
+) -> None:
+    """A demoted target node regains its potential when the robot sees the target clearly again (both
+    sources agree, raw Eq. 2 score over revive_min_score), twice at most; a lone weak detection that the
+    VLM contradicts revives nothing."""
+    tree_file = tmp_path / "revive.yaml"
+    tree_file.write_text(REVIVE_TREE)
+    target = Post(
+        1, 2.0, 0.0, vlm_label=vlm_label, detector_label="fire extinguisher",
+        detector_confidence=detector_confidence,
+    )  # fmt: skip
+    robot = NullRobot(start_pose=Pose2D(0.0, 0.0, 0.0), posts=((1, 2.0, 0.0, 0.2, 0.6),))
+    services = make_services(robot, seeing([target], directions=False))
+    board = prepare_board(
+        instructions=["find the fire extinguisher"], start_pose=robot.base_pose(), memory=TopologicalMemory()
+    )
+    board.memory.add_master(position_m=(0.0, 0.0, 0.0), stamp_s=0.0)
+    tree = build_tree(mission_path=tree_file, services=services)
+    tree.setup()
+
+    def look() -> None:
+        tree.tick()
+        while tree.root.status == py_trees.common.Status.RUNNING:
+            robot.advance(TICK_S)
+            tree.tick()
+        print(py_trees.display.unicode_tree(tree.root, show_status=True))
+        assert tree.root.status == py_trees.common.Status.SUCCESS
+
+    look()
+    (node,) = [n for n in board.memory.nodes() if n.label == "fire extinguisher"]
+    potentials = []
+    for _ in range(3):
+        board.memory.scale_potential(node_id=node.node_id, factor=0.1)
+        look()
+        potentials.append(board.memory.node(node.node_id).potential)
+    confidence = board.memory.node(node.node_id).confidence
+    revived = [p >= confidence - 1e-9 for p in potentials]
+    assert revived == [True] * revivals + [False] * (3 - revivals)
+
+
+@pytest.mark.parametrize(
+    ("views_naming_something_else", "outcome"),
+    [(1, py_trees.common.Status.SUCCESS), (2, py_trees.common.Status.FAILURE)],
+)
+def test_confirmation_needs_most_names_heard_at_the_spot_to_name_the_target(
+    tmp_path: Path, views_naming_something_else: int, outcome: py_trees.common.Status
+) -> None:
+    """An object the VLM first calls 'shelf' (earlier steps) and then 'bucket shelf' in four views: with one
+    earlier 'shelf', 4 of 5 names agree (>= 0.7) and it is confirmed; with two, 4 of 6 do not."""
+    as_target = Post(1, 0.8, 0.0, vlm_label="bucket shelf", detector_label="bucket shelf")
+    as_other = Post(1, 0.8, 0.0, vlm_label="shelf", detector_label=None)
+    named_target, named_other = seeing([as_target], directions=False), seeing([as_other], directions=False)
+    script = [named_other] * views_naming_something_else + [named_target] * 4
+    tree, robot, services, _ = confirm_tree_facing_a_post(tmp_path, script, "find the bucket shelf")
+    statuses = []
+    while robot.now_s() < 60.0 and len(statuses) < views_naming_something_else + 1:
+        tree.tick()
+        if tree.root.status != py_trees.common.Status.RUNNING:
+            statuses.append(tree.root.status)
+        robot.advance(TICK_S)
+    print(py_trees.display.unicode_tree(tree.root, show_status=True))
+    # Each earlier step's single view names a shelf, so its confirmation fails at once.
+    assert statuses[:-1] == [py_trees.common.Status.FAILURE] * views_naming_something_else
+    assert statuses[-1] == outcome
+    assert len(services.perception.requests) == views_naming_something_else + 4

@@ -575,3 +575,16 @@ def test_graph_travel_costs_match_networkx_dijkstra() -> None:
     costs = memory.travel_costs(from_position_m=robot, mode="graph")
     assert costs.keys() == reference.keys()
     assert all(costs[n] == pytest.approx(d_entry + reference[n]) for n in reference)
+
+
+def test_raise_potential_only_raises_and_checks_its_input() -> None:
+    memory = TopologicalMemory()
+    node = memory.update(position_m=(1.0, 0.0, 0.0), label="chair", confidence=0.8, stamp_s=0.0).node_id
+    memory.scale_potential(node_id=node, factor=0.25)
+    low = memory.node(node).potential
+    assert memory.raise_potential(node_id=node, at_least=0.6)
+    assert memory.node(node).potential == pytest.approx(0.6)
+    assert not memory.raise_potential(node_id=node, at_least=low)
+    assert memory.node(node).potential == pytest.approx(0.6)
+    with pytest.raises(InvalidInputError):
+        memory.raise_potential(node_id=node, at_least=1.5)
