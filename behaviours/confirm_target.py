@@ -2,9 +2,13 @@
 
 Semantics: a view *votes* for the target when one of its arbitration candidates is an object whose
 label names the instructed object (relevance >= ``align_threshold``), whose raw posterior score S(t)
-of Eq. 2 reaches ``min_score``, and whose back-projected position lies within ``confirm_radius_m`` of
-the robot. The candidate need not be the view's winner t*: an unexplored direction may outscore the
-object in Eq. 2 (it is where to look next), yet the object is still seen here.
+of Eq. 2 reaches ``min_score``, and whose back-projected position lies within ``confirm_radius_m`` +
+``vote_slack_m`` of the robot. Success also needs the mean of the voting positions to lie within
+``confirm_radius_m`` (the success radius r_s): one view's depth is noisy by a decimetre or more, so a
+robot standing 0.9 m from the target would lose single votes at a hard 1.0 m gate, while the mean of
+four views says reliably whether the target is within r_s. The candidate need not be the view's winner
+t*: an unexplored direction may outscore the object in Eq. 2 (it is where to look next), yet the object
+is still seen here.
 
 The behaviour reads the step's ``arbitration``; if it votes, it asks for up to ``max_extra_views`` more
 perceptions from the same stable viewpoint (RUNNING while the models think) and returns SUCCESS,
@@ -76,11 +80,18 @@ class ConfirmTarget(SemExpBehaviour):
             default=1.0,
             gt=0.0,
         ),
+        "vote_slack_m": ParamSpec(
+            "float",
+            doc="a single view may place the target this much beyond confirm_radius_m and still vote, m "
+            "(the mean of the votes must lie within confirm_radius_m)",
+            default=0.3,
+            ge=0.0,
+        ),
         "min_score": ParamSpec(
             "float",
             doc="least raw posterior score S(t*) of a confirming view (C_f is 1 for a lone candidate, "
             "so an absolute level is needed too)",
-            default=0.1,
+            default=0.05,
             ge=0.0,
             le=1.0,
         ),
@@ -141,6 +152,7 @@ class ConfirmTarget(SemExpBehaviour):
         name: str,
         *,
         confirm_radius_m: float = 1.0,
+        vote_slack_m: float = 0.3,
         min_score: float = 0.05,
         extra_views: int = 3,
         max_extra_views: int = 4,
@@ -155,6 +167,8 @@ class ConfirmTarget(SemExpBehaviour):
     ) -> None:
         super().__init__(name, context=context, remap=remap)
         self.confirm_radius_m = confirm_radius_m
+        self.vote_slack_m = vote_slack_m
+        self._vote_points: list[np.ndarray] = []
         if max_extra_views < extra_views:
             raise ValueError(
                 f"{name}: max_extra_views ({max_extra_views}) must be at least extra_views ({extra_views})"
@@ -179,6 +193,7 @@ class ConfirmTarget(SemExpBehaviour):
         self._first = None
         self._votes = 0
         self._views = 0
+        self._vote_points = []
         self._job = None
 
     def _aligned(self, label: str) -> bool:
@@ -202,7 +217,8 @@ class ConfirmTarget(SemExpBehaviour):
                 intrinsics=observation.intrinsics,
                 camera_to_world=observation.camera_to_world,
             )
-            if math.hypot(point[0] - pose.x_m, point[1] - pose.y_m) > self.confirm_radius_m:
+            reach = self.confirm_radius_m + self.vote_slack_m
+            if math.hypot(point[0] - pose.x_m, point[1] - pose.y_m) > reach:
                 return None
             return point
 
@@ -267,6 +283,7 @@ class ConfirmTarget(SemExpBehaviour):
             if vote is None:
                 return self._reject("no confirmable target here")
             self._first = vote
+            self._vote_points = [vote[1]]
         if self._votes >= self.extra_views:
             return self._succeed()
         if self._job is None:
@@ -301,6 +318,7 @@ class ConfirmTarget(SemExpBehaviour):
         vote = self._vote(arbitration, result.scene, observation)
         if vote is not None and np.linalg.norm(vote[1][:2] - self._first[1][:2]) <= self.consistency_radius_m:
             self._votes += 1
+            self._vote_points.append(vote[1])
         if self._votes >= self.extra_views:
             return self._succeed()
         if self._votes + (self.max_extra_views - self._views) < self.extra_views:
@@ -310,14 +328,18 @@ class ConfirmTarget(SemExpBehaviour):
         return py_trees.common.Status.RUNNING
 
     def _succeed(self) -> py_trees.common.Status:
-        label, point = self._first
+        label = self._first[0]
+        pose = self.services.robot.base_pose()
+        point = np.mean(self._vote_points, axis=0)
+        reach = math.hypot(point[0] - pose.x_m, point[1] - pose.y_m)
+        if reach > self.confirm_radius_m:
+            return self._reject(f"{label!r} has the votes, but its mean position is {reach:.2f} m away")
         agreeing, heard = self._label_agreement(point)
         if heard and agreeing < self.min_label_agreement * heard:
             return self._reject(
                 f"{label!r} has the votes, but only {agreeing} of {heard} names heard at its spot name it"
             )
         found = list(self.read("found_objects", []))
-        pose = self.services.robot.base_pose()
         found.append(
             {
                 "label": label,

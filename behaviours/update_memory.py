@@ -208,7 +208,9 @@ class UpdateMemory(SemExpBehaviour):
                 if proposal.kind == "object" and tuple(proposal.point_px) not in candidate_pixels:
                     # An object, not a place: its node sits on it, so that a later instruction that asks
                     # for it ("find the red trash can" after the extinguisher) leads right up to it.
-                    offers.append((proposal.point_px, proposal.region_px, proposal.label, weight, False, None))
+                    offers.append(
+                        (proposal.point_px, proposal.region_px, proposal.label, weight, False, None)
+                    )
         observation = self.read("observation")
         if self.offer_frontiers and observation is not None:
             # Frontiers beside the VLM's directions: the gate of Eq. 6 merges one that lands on a node the

@@ -352,21 +352,35 @@ CONFIRM_TREE = (
 )
 
 
-def confirm_tree_facing_a_post(tmp_path: Path, script: list, instruction: str):  # type: ignore[no-untyped-def]
-    """CONFIRM_TREE on a robot facing one post 0.8 m ahead, with scripted perception answers in order.
+def confirm_tree_facing_a_post(  # type: ignore[no-untyped-def]
+    tmp_path: Path, script: list, instruction: str, *, post_x_m: float = 0.8
+):
+    """CONFIRM_TREE on a robot facing one post ``post_x_m`` ahead, with scripted perception answers in order.
 
     Returns (tree, robot, services, board); the tree is set up, not yet ticked.
     """
     tree_file = tmp_path / "confirm.yaml"
     tree_file.write_text(CONFIRM_TREE)
-    robot = NullRobot(start_pose=Pose2D(0.0, 0.0, 0.0), posts=((1, 0.8, 0.0, 0.2, 0.6),))
+    robot = NullRobot(start_pose=Pose2D(0.0, 0.0, 0.0), posts=((1, post_x_m, 0.0, 0.2, 0.6),))
     services = make_services(robot, script[0])
     services.perception = ScriptedPerception(script, latency_s=1.0)
-    board = prepare_board(instructions=[instruction], start_pose=robot.base_pose(), memory=TopologicalMemory())
+    board = prepare_board(
+        instructions=[instruction], start_pose=robot.base_pose(), memory=TopologicalMemory()
+    )
     board.memory.add_master(position_m=(0.0, 0.0, 0.0), stamp_s=0.0)
     tree = build_tree(mission_path=tree_file, services=services)
     tree.setup()
     return tree, robot, services, board
+
+
+def tick_until_done(tree, robot, *, limit_s: float = 30.0) -> None:  # type: ignore[no-untyped-def]
+    """Tick until the root leaves RUNNING (or ``limit_s`` of robot time), then print the tree."""
+    while robot.now_s() < limit_s:
+        tree.tick()
+        if tree.root.status != py_trees.common.Status.RUNNING:
+            break
+        robot.advance(TICK_S)
+    print(py_trees.display.unicode_tree(tree.root, show_status=True))
 
 
 @pytest.mark.parametrize(
@@ -388,12 +402,7 @@ def test_confirmation_is_three_votes_out_of_at_most_four_further_views(
     sees, blind = seeing([target], directions=False), seeing([], directions=False)
     script = [sees] + [sees if vote else blind for vote in extra_view_votes]
     tree, robot, services, board = confirm_tree_facing_a_post(tmp_path, script, "find the fire extinguisher")
-    while robot.now_s() < 30.0:
-        tree.tick()
-        if tree.root.status != py_trees.common.Status.RUNNING:
-            break
-        robot.advance(TICK_S)
-    print(py_trees.display.unicode_tree(tree.root, show_status=True))
+    tick_until_done(tree, robot)
     assert tree.root.status == outcome
     assert len(services.perception.requests) == 1 + views_taken
     found = board.found_objects if outcome == py_trees.common.Status.SUCCESS else []
@@ -520,3 +529,24 @@ def test_confirmation_needs_most_names_heard_at_the_spot_to_name_the_target(
     assert statuses[:-1] == [py_trees.common.Status.FAILURE] * views_naming_something_else
     assert statuses[-1] == outcome
     assert len(services.perception.requests) == views_naming_something_else + 4
+
+
+@pytest.mark.parametrize(
+    ("post_x_m", "outcome"),
+    [(1.05, py_trees.common.Status.SUCCESS), (1.45, py_trees.common.Status.FAILURE)],
+    ids=["surface-0.85m-confirmed", "surface-1.25m-votes-but-beyond-r_s"],
+)
+def test_confirmation_declares_only_when_the_mean_vote_lies_within_the_success_radius(
+    tmp_path: Path, post_x_m: float, outcome: py_trees.common.Status
+) -> None:
+    """Single views may vote up to confirm_radius_m + vote_slack_m (1.3 m) away; success needs the mean
+    voting position within confirm_radius_m (1.0 m). A post whose front surface is 1.25 m away gets every
+    vote and is still not declared."""
+    target = Post(1, post_x_m, 0.0, vlm_label="fire extinguisher", detector_label="fire extinguisher")
+    sees = seeing([target], directions=False)
+    tree, robot, services, _ = confirm_tree_facing_a_post(
+        tmp_path, [sees] * 5, "find the fire extinguisher", post_x_m=post_x_m
+    )
+    tick_until_done(tree, robot)
+    assert tree.root.status == outcome
+    assert len(services.perception.requests) == 4  # the first view and three voting further views

@@ -486,3 +486,37 @@ def test_blackboard_conditions_compare_board_values(tmp_path: Path) -> None:
     board.set("/mission_outcome", "running")
     mission.root.tick_once()
     assert mission.root.status == Status.FAILURE  # 1 > 2 is false
+
+
+def test_each_behaviours_documented_defaults_are_its_constructor_defaults() -> None:
+    """The reference table is generated from each behaviour's PARAMS; a constructor default that differs
+    would make the docs lie about what a tree that omits the parameter gets (ConfirmTarget's min_score
+    once did)."""
+    import importlib
+    import inspect
+    import pkgutil
+
+    import behaviours
+    from behaviours.base import SemExpBehaviour
+
+    checked = 0
+    for module_info in pkgutil.iter_modules(behaviours.__path__):
+        module = importlib.import_module(f"behaviours.{module_info.name}")
+        for cls in vars(module).values():
+            if not (
+                inspect.isclass(cls)
+                and issubclass(cls, SemExpBehaviour)
+                and cls.__module__ == module.__name__
+            ):
+                continue
+            signature = inspect.signature(cls.__init__)
+            for name, param in cls.PARAMS.items():
+                default = signature.parameters[name].default
+                assert default is not inspect.Parameter.empty, (
+                    f"{cls.__name__}.{name} has no constructor default"
+                )
+                assert param.default == default, (
+                    f"{cls.__name__}.{name}: PARAMS says {param.default!r}, __init__ says {default!r}"
+                )
+                checked += 1
+    assert checked > 40
