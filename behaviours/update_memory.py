@@ -40,6 +40,9 @@ Box = tuple[float, float, float, float]
 #: score of the arbitration candidate behind it or None).
 Offer = tuple[tuple[float, float], Box | None, str, float, bool, float | None]
 
+#: Relevance at which a label names the instructed object itself (ConfirmTarget's default align_threshold).
+INSTRUCTED_OBJECT_RELEVANCE = 0.9
+
 #: Label of a geometric frontier node (the relevance scorer sees it like a VLM's direction label).
 FRONTIER_LABEL = "unexplored area"
 
@@ -149,7 +152,7 @@ class UpdateMemory(SemExpBehaviour):
         self._revivals: dict[int, int] = {}
 
     def _offers(self) -> list[Offer]:
-        """(pixel, box, label, confidence, is_place) for t*, the other candidates and the scene's landmarks.
+        """(pixel, box, label, confidence, is_place, score) for t*, the other candidates and the landmarks.
 
         ``box`` is the detection box or the VLM's region of an object offer (None for places), from which
         :func:`~semexp_bt.geometry.object_surface_depth` takes the object's range.
@@ -283,7 +286,7 @@ class UpdateMemory(SemExpBehaviour):
         """Revival (see the module docstring): strong evidence for the instructed object restores its node."""
         if score < self.revive_min_score or self._revivals.get(node_id, 0) >= self.max_revivals:
             return []
-        if not self.names_instructed_object(label, threshold=0.9):
+        if not self.names_instructed_object(label, threshold=INSTRUCTED_OBJECT_RELEVANCE):
             return []
         state = memory.node(node_id)
         if not memory.raise_potential(node_id=node_id, at_least=state.confidence):
