@@ -580,7 +580,8 @@ DIFFERENCES = """\
   its tracking errors are not in the loop. Collisions and clearance are still checked.
 - **Latency** of the models is simulated on the sim clock (VLM ~2.5 s, detector ~1.2 s); Table V's wall
   latencies are those of our own code on the machine named above, not of the models.
-- **Trial counts** of Tables I, II and IV are ours (the paper gives none); Table III keeps 20 per scene.
+- **Trial counts** of Tables I, II and IV are ours (the paper gives none); Table III's is in the header's
+  protocol line (the paper's, and the command's default, is 20 per scene).
   Comparisons use matched episodes (the same scene and seed for every strategy compared).
 """
 
