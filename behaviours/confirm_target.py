@@ -168,7 +168,6 @@ class ConfirmTarget(SemExpBehaviour):
         super().__init__(name, context=context, remap=remap)
         self.confirm_radius_m = confirm_radius_m
         self.vote_slack_m = vote_slack_m
-        self._vote_points: list[np.ndarray] = []
         if max_extra_views < extra_views:
             raise ValueError(
                 f"{name}: max_extra_views ({max_extra_views}) must be at least extra_views ({extra_views})"
@@ -184,13 +183,15 @@ class ConfirmTarget(SemExpBehaviour):
         self.label_agreement_radius_m = label_agreement_radius_m
         #: (x, y, names the target) for every object name heard near the robot, over the mission.
         self._names: list[tuple[float, float, bool]] = []
-        self._first: tuple[str, np.ndarray] | None = None
+        #: The label the first view voted for (None until it has), and every voting position, first first.
+        self._label: str | None = None
+        self._vote_points: list[np.ndarray] = []
         self._votes = 0
         self._views = 0
         self._job: PerceptionJob | None = None
 
     def initialise(self) -> None:
-        self._first = None
+        self._label = None
         self._votes = 0
         self._views = 0
         self._vote_points = []
@@ -273,17 +274,17 @@ class ConfirmTarget(SemExpBehaviour):
             ):
                 memory.scale_potential(node_id=node_id, factor=self.reject_potential_factor)
         self.feedback_message = why
-        if self._first is not None:
+        if self._label is not None:
             self.services.log_event("confirmation_rejected", reason=why)
         return py_trees.common.Status.FAILURE
 
     def update(self) -> py_trees.common.Status:
-        if self._first is None:
+        if self._label is None:
             vote = self._vote(self.read("arbitration"), self.read("scene_evidence"), self.read("observation"))
             if vote is None:
                 return self._reject("no confirmable target here")
-            self._first = vote
-            self._vote_points = [vote[1]]
+            self._label, first_point = vote
+            self._vote_points = [first_point]
         if self._votes >= self.extra_views:
             return self._succeed()
         if self._job is None:
@@ -297,7 +298,7 @@ class ConfirmTarget(SemExpBehaviour):
                 now_s=self.now_s(),
             )
             self.feedback_message = (
-                f"confirming {self._first[0]!r}: {self._votes}/{self.extra_views} votes, "
+                f"confirming {self._label!r}: {self._votes}/{self.extra_views} votes, "
                 f"view {self._views + 1} of at most {self.max_extra_views}"
             )
             return py_trees.common.Status.RUNNING
@@ -316,19 +317,22 @@ class ConfirmTarget(SemExpBehaviour):
             image_size=(observation.intrinsics.width_px, observation.intrinsics.height_px),
         )
         vote = self._vote(arbitration, result.scene, observation)
-        if vote is not None and np.linalg.norm(vote[1][:2] - self._first[1][:2]) <= self.consistency_radius_m:
+        if (
+            vote is not None
+            and np.linalg.norm(vote[1][:2] - self._vote_points[0][:2]) <= self.consistency_radius_m
+        ):
             self._votes += 1
             self._vote_points.append(vote[1])
         if self._votes >= self.extra_views:
             return self._succeed()
         if self._votes + (self.max_extra_views - self._views) < self.extra_views:
             return self._reject(
-                f"only {self._votes} of {self._views} further views confirmed {self._first[0]!r}"
+                f"only {self._votes} of {self._views} further views confirmed {self._label!r}"
             )
         return py_trees.common.Status.RUNNING
 
     def _succeed(self) -> py_trees.common.Status:
-        label = self._first[0]
+        label = self._label
         pose = self.services.robot.base_pose()
         point = np.mean(self._vote_points, axis=0)
         reach = math.hypot(point[0] - pose.x_m, point[1] - pose.y_m)

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from typing import NamedTuple
 
 import numpy as np
 import py_trees
@@ -36,9 +37,18 @@ from semexp_bt.frontier import depth_frontiers
 from semexp_bt.geometry import back_project, object_surface_depth
 
 Box = tuple[float, float, float, float]
-#: One offer to the memory: (pixel, box of an object or None, label, confidence, is_place, raw Eq. 2
-#: score of the arbitration candidate behind it or None).
-Offer = tuple[tuple[float, float], Box | None, str, float, bool, float | None]
+
+
+class Offer(NamedTuple):
+    """One offer to the memory's gated insert (Eq. 6)."""
+
+    pixel: tuple[float, float]
+    box: Box | None  # the object's detection box or VLM region; None for places
+    label: str
+    confidence: float
+    is_place: bool
+    score: float | None = None  # raw Eq. 2 score of the arbitration candidate behind it
+
 
 #: Relevance at which a label names the instructed object itself (ConfirmTarget's default align_threshold).
 INSTRUCTED_OBJECT_RELEVANCE = 0.9
@@ -172,7 +182,7 @@ class UpdateMemory(SemExpBehaviour):
         if target is not None and result is not None:
             winner = result.winner
             offers.append(
-                (
+                Offer(
                     target.pixel_px,
                     None if winner is None else candidate_box(winner, scene),
                     target.label,
@@ -192,7 +202,7 @@ class UpdateMemory(SemExpBehaviour):
                         # as much as a landmark it named.
                         confidence = max(confidence, place_weight)
                     offers.append(
-                        (
+                        Offer(
                             cand.pixel_px,
                             candidate_box(cand, scene),
                             cand.label,
@@ -211,9 +221,7 @@ class UpdateMemory(SemExpBehaviour):
                 if proposal.kind == "object" and tuple(proposal.point_px) not in candidate_pixels:
                     # An object, not a place: its node sits on it, so that a later instruction that asks
                     # for it ("find the red trash can" after the extinguisher) leads right up to it.
-                    offers.append(
-                        (proposal.point_px, proposal.region_px, proposal.label, weight, False, None)
-                    )
+                    offers.append(Offer(proposal.point_px, proposal.region_px, proposal.label, weight, False))
         observation = self.read("observation")
         if self.offer_frontiers and observation is not None:
             # Frontiers beside the VLM's directions: the gate of Eq. 6 merges one that lands on a node the
@@ -226,7 +234,7 @@ class UpdateMemory(SemExpBehaviour):
                 min_width_deg=self.frontier_min_width_deg,
             )
             for frontier in frontiers[: self.max_frontiers]:
-                offers.append((frontier.pixel_px, None, FRONTIER_LABEL, self.frontier_confidence, True, None))
+                offers.append(Offer(frontier.pixel_px, None, FRONTIER_LABEL, self.frontier_confidence, True))
         self.services.place_labels.add(FRONTIER_LABEL)
         if result is not None:
             self.services.place_labels.update(c.label for c in result.candidates if c.kind == "direction")
