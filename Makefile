@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: setup mission test lint bench-core slow
+.PHONY: setup mission test lint bench-core slow ray
 
 $(STAMP): pyproject.toml scripts/setup.sh
 	bash scripts/setup.sh
@@ -20,6 +20,11 @@ test: $(STAMP)
 
 slow: $(STAMP)
 	MUJOCO_GL=egl $(BIN)/python -m pytest -q -m slow
+
+# Ray is optional: this installs the cluster extra into .venv, then runs the sweeps on a local Ray cluster.
+ray: $(STAMP)
+	$(BIN)/pip install -q -e '.[cluster]'
+	MUJOCO_GL=egl $(BIN)/python -m pytest -q -m ray
 
 bench-core: $(STAMP)
 	$(BIN)/semexp-bt bench core --json runs/bench-core.json

@@ -61,7 +61,7 @@ STATUS_OK = "ok"
 STATUS_ERROR = "error"
 STATUS_TIMEOUT = "timeout"
 
-#: Default wall-time limit per episode (s). A kinematic episode of the 300 s mission takes about 30 s
+#: Default wall-time limit per episode (s). A kinematic episode of the 600 s mission takes about 50 s
 #: on one core of the development machine; ten times that means something is wrong.
 DEFAULT_EPISODE_TIMEOUT_S = 600.0
 #: Extra wall time the parent grants a worker beyond the episode's own limit before killing the pool
@@ -71,6 +71,8 @@ HARD_KILL_GRACE_S = 90.0
 MAX_WORKER_DEATHS = 3
 #: How often the parent wakes to check deadlines (s).
 POLL_S = 1.0
+#: Ray's environment switch that keeps a loopback address on loopback (see ``_import_ray_for``).
+RAY_LOOPBACK_SWITCH = "RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER"
 
 FIDELITIES = ("kinematic", "dynamic")
 RELEVANCES = ("embedding", "lexical")
@@ -788,12 +790,7 @@ def _run_pool(todo: list[EpisodeTask], *, run_fn: RunFunction, workers: int,
 def _run_ray(todo: list[EpisodeTask], *, run_fn: RunFunction, address: str, workers: int,
              accept: Callable[[dict[str, Any]], None]) -> None:  # fmt: skip
     """Ray tasks, one CPU each; ``workers`` caps the episodes in flight (0: the cluster's CPUs)."""
-    try:
-        import ray  # type: ignore[import-not-found]
-    except ImportError:
-        raise HarnessError(
-            "--ray-address needs Ray, which is not installed: pip install 'ray[default]'"
-        ) from None
+    ray = _import_ray_for(address)
     ray.init(address=address, ignore_reinit_error=True, log_to_driver=False)
     limit = workers or max(1, int(ray.cluster_resources().get("CPU", 1)))
     remote = ray.remote(num_cpus=1, max_retries=0)(execute_task)
@@ -818,6 +815,36 @@ def _run_ray(todo: list[EpisodeTask], *, run_fn: RunFunction, address: str, work
                 in_flight.pop(ref)
                 accept(_with_key(_failure_row(task, STATUS_TIMEOUT, f"cancelled by the harness after {now - t0:.0f} s",
                                               now - t0), task))  # fmt: skip
+
+
+def _is_loopback(address: str) -> bool:
+    host = address.removeprefix("ray://").rsplit(":", 1)[0].strip("[]")
+    return host in ("127.0.0.1", "localhost", "::1")
+
+
+def _import_ray_for(address: str) -> Any:
+    """Import Ray so that it can reach ``address``.
+
+    Ray swaps a loopback address for the machine's routable one before it connects, and then waits for a
+    head that a loopback-only cluster (docs/harness.md) does not serve there. Its switch for keeping
+    loopback, ``RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER=0``, is read once, when Ray is first imported.
+    """
+    loopback = _is_loopback(address)
+    if loopback and "ray" not in sys.modules:
+        os.environ.setdefault(RAY_LOOPBACK_SWITCH, "0")
+    try:
+        import ray  # type: ignore[import-not-found]
+    except ImportError:
+        raise HarnessError(
+            "--ray-address needs Ray, which is not installed: pip install -e '.[cluster]'"
+        ) from None
+    constants = getattr(getattr(ray, "_private", None), "ray_constants", None)
+    if loopback and getattr(constants, "ENABLE_RAY_CLUSTER", False):
+        raise HarnessError(
+            f"--ray-address {address} is on loopback, but Ray was imported before {RAY_LOOPBACK_SWITCH}=0 was "
+            "set: set it in the environment, or give the address that 'ray start' printed"
+        )
+    return ray
 
 
 def summarize_rows(rows: Sequence[Mapping[str, Any]]) -> dict[str, int]:
