@@ -103,7 +103,7 @@ class OccupancyMap:
     def integrate(self, observation: Observation) -> int:
         """Add one depth frame; returns how many rays were used."""
         cfg = self.config
-        depth = np.asarray(observation.depth_m, dtype=float)[:: cfg.pixel_stride, :: cfg.pixel_stride]
+        depth = np.asarray(observation.depth_m[:: cfg.pixel_stride, :: cfg.pixel_stride], dtype=float)
         k = observation.intrinsics
         rows, cols = np.mgrid[
             0 : observation.depth_m.shape[0] : cfg.pixel_stride,
@@ -147,10 +147,19 @@ class OccupancyMap:
         if xy.shape[0] == 0:
             return
         cells = self.cell_of(xy)
-        cells = cells[self._inside(cells)]
-        flat = cells[:, 0] * self.size + cells[:, 1]
-        counts = np.bincount(flat, minlength=self.size * self.size).reshape(self.size, self.size)
-        grid += np.minimum(counts, 4).astype(np.float32)  # one frame cannot outvote many
+        rows, cols = cells[:, 0], cells[:, 1]
+        inside = (rows >= 0) & (rows < self.size) & (cols >= 0) & (cols < self.size)
+        rows, cols = rows[inside], cols[inside]
+        if rows.size == 0:
+            return
+        # Count within the bounding box of this frame's cells (a few metres), not the whole map: the
+        # grid is 160,000 cells and a frame touches a few thousand.
+        row0, col0 = int(rows.min()), int(cols.min())
+        height, width = int(rows.max()) + 1 - row0, int(cols.max()) + 1 - col0
+        counts = np.bincount((rows - row0) * width + (cols - col0), minlength=height * width)
+        window = grid[row0 : row0 + height, col0 : col0 + width]
+        # At most 4 per cell and frame: one frame cannot outvote many.
+        window += np.minimum(counts, 4).astype(np.float32).reshape(height, width)
 
     def occupied(self) -> npt.NDArray[np.bool_]:
         return (self.hits > 0.0) & (self.hits >= 0.5 * self.free)

@@ -79,7 +79,9 @@ def test_a_ray_sweep_gives_the_rows_of_a_local_sweep_and_survives_a_crash(
     grid = spec()
     on_ray = run_sweep(grid, tmp_path / "ray", run_fn=crashing_run, ray_address=ray_address, workers=2,
                        progress=None, check_names=False)  # fmt: skip
-    local = run_sweep(grid, tmp_path / "local", run_fn=crashing_run, workers=0, progress=None, check_names=False)
+    local = run_sweep(
+        grid, tmp_path / "local", run_fn=crashing_run, workers=0, progress=None, check_names=False
+    )
     ray_rows, local_rows = load_rows(tmp_path / "ray"), load_rows(tmp_path / "local")
     print(json.dumps(sorted((r["key"], r["status"]) for r in ray_rows), indent=1))
     assert on_ray.ran == local.ran == 8 and on_ray.errors == local.errors == 4
@@ -96,19 +98,28 @@ def test_a_ray_sweep_gives_the_rows_of_a_local_sweep_and_survives_a_crash(
     assert rerun.ran == 0
 
 
-def test_bench_missions_on_ray_runs_a_real_episode_like_a_local_worker(ray_address: str, tmp_path: Path) -> None:
+def test_bench_missions_on_ray_runs_a_real_episode_like_a_local_worker(
+    ray_address: str, tmp_path: Path
+) -> None:
     """The CLI with --ray-address: a 40 s simulated road episode, the same row as a local worker's."""
     common = ["--scenes", "road", "--seeds", "1", "--strategies", "ours", "--relevance", "lexical",
               "--max-sim-s", "40", "--quiet"]  # fmt: skip
     env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
     env.pop("RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER", None)  # the harness must keep the loopback address itself
     cli = [sys.executable, "-m", "semexp_bt", "bench", "missions"]
-    for out, engine in ((tmp_path / "ray", ["--ray-address", ray_address]), (tmp_path / "local", ["--workers", "1"])):
+    for out, engine in (
+        (tmp_path / "ray", ["--ray-address", ray_address]),
+        (tmp_path / "local", ["--workers", "1"]),
+    ):
         done = subprocess.run([*cli, *common, "--out", str(out), *engine], env=env, cwd=REPO, capture_output=True,
                               text=True, timeout=600)  # fmt: skip
         assert done.returncode == 0, done.stderr[-2000:]
     ray_rows, local_rows = load_rows(tmp_path / "ray"), load_rows(tmp_path / "local")
-    print(json.dumps({k: ray_rows[0].get(k) for k in ("key", "status", "outcome", "path_length_m", "sim_time_s")}))
+    print(
+        json.dumps(
+            {k: ray_rows[0].get(k) for k in ("key", "status", "outcome", "path_length_m", "sim_time_s")}
+        )
+    )
     assert len(ray_rows) == len(local_rows) == 1 and ray_rows[0]["status"] == STATUS_OK
     assert 0.0 < ray_rows[0]["sim_time_s"] <= 40.5
     assert _comparable(ray_rows) == _comparable(local_rows)
