@@ -330,6 +330,26 @@ def wall_per_sim_second(rows: Sequence[Mapping[str, Any]]) -> float | None:
     return sum(float(r["wall_time_s"]) for r in good) / sim if sim > 0.0 else None
 
 
+def throughput_by_fidelity(rows: Sequence[Mapping[str, Any]]) -> dict[str, dict[str, float]]:
+    """Per fidelity: finished episodes, episodes per hour per core, and wall time per simulated second.
+
+    A worker runs one episode at a time on one core, so episodes per hour per core is the episode count
+    over the episodes' own harness wall times (model loading and process start included), which does
+    not depend on how many workers ran them.
+    """
+    out: dict[str, dict[str, float]] = {}
+    for fidelity in sorted({str(r.get("fidelity")) for r in ok_rows(rows)}):
+        group = [r for r in ok_rows(rows) if str(r.get("fidelity")) == fidelity]
+        busy_s = sum(float(r.get("harness_wall_s") or r.get("wall_time_s") or 0.0) for r in group)
+        ratio = wall_per_sim_second(group)
+        out[fidelity] = {
+            "episodes": float(len(group)),
+            "episodes_per_hour_per_core": 3600.0 * len(group) / busy_s if busy_s > 0.0 else float("nan"),
+            "wall_s_per_sim_s": float("nan") if ratio is None else ratio,
+        }
+    return out
+
+
 def write_report(
     out_dir: Path, *, rows: Sequence[Mapping[str, Any]] | None = None, plots: bool = True
 ) -> Path:
@@ -382,6 +402,11 @@ def write_report(
     ratio = wall_per_sim_second(rows)
     if ratio is not None:
         parts += ["", f"Wall time per simulated second: {ratio:.3f} s (all finished episodes)."]
+        parts += ["", "## Throughput", "", "| fidelity | episodes | episodes per hour per core | "
+                  "wall s per simulated s |", "| --- | --- | --- | --- |"]  # fmt: skip
+        for fidelity, figures in throughput_by_fidelity(rows).items():
+            parts.append(f"| {fidelity} | {figures['episodes']:.0f} | {figures['episodes_per_hour_per_core']:.0f} | "
+                         f"{figures['wall_s_per_sim_s']:.3f} |")  # fmt: skip
     latency = latency_table(rows)
     if latency:
         parts += ["", "## Per-stage latency and rate", "", latency_markdown(latency)]

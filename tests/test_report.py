@@ -165,9 +165,12 @@ def test_write_report_writes_tables_plots_and_failures(tmp_path: Path) -> None:
     rows[3]["success_declared"] = True  # now seed 3 declares success 3 m from the goal
     for r, wall_s in zip(rows, (1.0, 2.0, 3.0, 4.0), strict=False):
         r["wall_time_s"] = wall_s
+        r["harness_wall_s"] = wall_s + 0.5  # process start and model loading on top of the episode
     text = write_report(tmp_path, rows=rows, plots=False).read_text()
     assert "1 of 4 episodes.\n- `office/3/ours/kinematic/abc`" in text
     assert "Wall time per simulated second: 0.250 s" in text  # 10 s of wall over 40 s simulated
+    # Four kinematic episodes in 12 s of harness wall time: 1200 per hour on one core.
+    assert "| kinematic | 4 | 1200 | 0.250 |" in text
 
 
 def test_write_report_without_rows_is_a_clear_error(tmp_path: Path) -> None:
