@@ -96,9 +96,6 @@ class OccupancyMap:
     def centre_of(self, cells: npt.NDArray[np.int64]) -> FloatArray:
         return self._lower + (np.asarray(cells, dtype=float) + 0.5) * self.config.resolution_m
 
-    def _inside(self, cells: npt.NDArray[np.int64]) -> npt.NDArray[np.bool_]:
-        return np.all((cells >= 0) & (cells < self.size), axis=-1)
-
     # ------------------------------------------------------------------ mapping
     def integrate(self, observation: Observation) -> int:
         """Add one depth frame; returns how many rays were used."""
