@@ -7,13 +7,16 @@ environment variables that keep every Ray socket on loopback) and stops it after
 
 from __future__ import annotations
 
+import contextlib
 import importlib.util
 import json
 import os
 import shutil
+import signal
 import socket
 import subprocess
 import sys
+import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -25,6 +28,7 @@ from semexp_bt.harness import STATUS_ERROR, STATUS_OK, load_rows, run_sweep
 pytestmark = [
     pytest.mark.ray,
     pytest.mark.skipif(importlib.util.find_spec("ray") is None, reason="Ray is not installed (make ray)"),
+    pytest.mark.skipif(not Path("/proc").is_dir(), reason="the fixture stops the head by pid via /proc"),
 ]
 
 REPO = Path(__file__).resolve().parents[1]
@@ -63,8 +67,32 @@ def ray_address(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
     finally:
         if "ray" in sys.modules:
             sys.modules["ray"].shutdown()
-        subprocess.run([_ray_cli(), "stop", "--force"], env=env, capture_output=True, timeout=120)
+        _stop_processes_under(temp_dir)
         shutil.rmtree(temp_dir, ignore_errors=True)
+
+
+def _stop_processes_under(temp_dir: Path) -> None:
+    """Stop, by pid, every process whose command line names ``temp_dir`` (this head and its workers).
+
+    ``ray stop`` would stop every Ray process on the machine, a user's own cluster included.
+    """
+    mine = []
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit() or int(entry.name) == os.getpid():
+            continue
+        try:
+            command = (entry / "cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace")
+        except OSError:
+            continue
+        if str(temp_dir) in command:
+            mine.append(int(entry.name))
+    for signal_number in (signal.SIGTERM, signal.SIGKILL):
+        for pid in mine:
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(pid, signal_number)
+        deadline = time.monotonic() + 10.0
+        while time.monotonic() < deadline and any(Path(f"/proc/{pid}").exists() for pid in mine):
+            time.sleep(0.2)
 
 
 def _comparable(rows: list[dict[str, Any]]) -> dict[str, dict[str, Any]]:
