@@ -36,6 +36,7 @@ import math
 import multiprocessing
 import os
 import signal
+import socket
 import subprocess
 import sys
 import threading
@@ -73,6 +74,8 @@ MAX_WORKER_DEATHS = 3
 POLL_S = 1.0
 #: Ray's environment switch that keeps a loopback address on loopback (see ``_import_ray_for``).
 RAY_LOOPBACK_SWITCH = "RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER"
+#: How long the harness waits for a Ray head to accept a TCP connection before refusing the address (s).
+RAY_CONNECT_TIMEOUT_S = 10.0
 
 FIDELITIES = ("kinematic", "dynamic")
 RELEVANCES = ("embedding", "lexical")
@@ -791,6 +794,7 @@ def _run_ray(todo: list[EpisodeTask], *, run_fn: RunFunction, address: str, work
              accept: Callable[[dict[str, Any]], None]) -> None:  # fmt: skip
     """Ray tasks, one CPU each; ``workers`` caps the episodes in flight (0: the cluster's CPUs)."""
     ray = _import_ray_for(address)
+    require_ray_head_answers(address)
     ray.init(address=address, ignore_reinit_error=True, log_to_driver=False)
     limit = workers or max(1, int(ray.cluster_resources().get("CPU", 1)))
     remote = ray.remote(num_cpus=1, max_retries=0)(execute_task)
@@ -815,6 +819,30 @@ def _run_ray(todo: list[EpisodeTask], *, run_fn: RunFunction, address: str, work
                 in_flight.pop(ref)
                 accept(_with_key(_failure_row(task, STATUS_TIMEOUT, f"cancelled by the harness after {now - t0:.0f} s",
                                               now - t0), task))  # fmt: skip
+
+
+def require_ray_head_answers(address: str, *, timeout_s: float = RAY_CONNECT_TIMEOUT_S) -> None:
+    """Refuse a ``host:port`` address where nothing accepts a TCP connection.
+
+    ``ray.init`` retries an unreachable head without end (seen with Ray 2.60), so a mistyped address
+    would hang the sweep. ``auto`` and ``ray://`` (Ray Client) addresses are left to Ray.
+
+    Raises:
+        HarnessError: naming the address, when the connection is refused or times out.
+    """
+    if address == "auto" or address.startswith("ray://"):
+        return
+    host, _, port = address.rpartition(":")
+    if not host or not port.isdigit():
+        raise HarnessError(f"--ray-address {address!r}: expected 'auto', 'ray://host:port' or 'host:port'")
+    try:
+        with socket.create_connection((host.strip("[]"), int(port)), timeout=timeout_s):
+            pass
+    except OSError as exc:
+        raise HarnessError(
+            f"--ray-address {address}: no Ray head answers there ({exc.strerror or exc}); start one with "
+            "'ray start --head' or give the address it printed"
+        ) from None
 
 
 def _is_loopback(address: str) -> bool:

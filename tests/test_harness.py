@@ -10,6 +10,7 @@ import json
 import math
 import os
 import signal
+import socket
 import sys
 import time
 from pathlib import Path
@@ -296,6 +297,19 @@ def test_ray_missing_is_a_clear_error(tmp_path: Path) -> None:
         pytest.skip("Ray is installed here")
     with pytest.raises(HarnessError, match="pip install"):
         sweep(tmp_path, ray_address="auto")
+
+
+def test_a_ray_address_where_no_head_answers_is_refused_not_waited_on() -> None:
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as listener:
+        listener.bind(("127.0.0.1", 0))
+        listener.listen(1)
+        open_port = listener.getsockname()[1]
+        harness.require_ray_head_answers(f"127.0.0.1:{open_port}", timeout_s=2.0)  # something answers
+    with pytest.raises(HarnessError, match=f"127.0.0.1:{open_port}: no Ray head answers"):
+        harness.require_ray_head_answers(f"127.0.0.1:{open_port}", timeout_s=2.0)
+    with pytest.raises(HarnessError, match="expected 'auto'"):
+        harness.require_ray_head_answers("my-cluster", timeout_s=2.0)
+    harness.require_ray_head_answers("auto")  # left to Ray
 
 
 def _ray_installed() -> bool:
