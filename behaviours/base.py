@@ -18,6 +18,10 @@ from behaviours.spec import BlackboardKey, BuildContext, ParamSpec
 from blackboard.schema import SCHEMA, checked_write, register_keys
 from semexp_bt.types import Twist
 
+#: Relevance at which a label names the instructed object itself (the instructed label or a synonym), not
+#: merely something like it ('shelf' for 'bucket shelf').
+INSTRUCTED_OBJECT_RELEVANCE = 0.9
+
 
 class SemExpBehaviour(py_trees.behaviour.Behaviour):
     """A leaf behaviour with services and schema-checked blackboard keys.

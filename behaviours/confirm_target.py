@@ -43,7 +43,7 @@ from collections.abc import Mapping
 import numpy as np
 import py_trees
 
-from behaviours.base import SemExpBehaviour
+from behaviours.base import INSTRUCTED_OBJECT_RELEVANCE, SemExpBehaviour
 from behaviours.spec import BuildContext, ParamSpec
 from semexp_bt.evidence import arbitrate, candidate_box
 from semexp_bt.geometry import back_project, object_surface_depth
@@ -112,7 +112,7 @@ class ConfirmTarget(SemExpBehaviour):
             "float",
             doc="relevance at which a label counts as the instructed object (0.9: the instructed label or a synonym; "
             "a partial match such as 'shelf' for 'bucket shelf' is a distractor, never a success)",
-            default=0.9,
+            default=INSTRUCTED_OBJECT_RELEVANCE,
             ge=0.0,
             le=1.0,
         ),
@@ -157,7 +157,7 @@ class ConfirmTarget(SemExpBehaviour):
         extra_views: int = 3,
         max_extra_views: int = 4,
         consistency_radius_m: float = 0.8,
-        align_threshold: float = 0.9,
+        align_threshold: float = INSTRUCTED_OBJECT_RELEVANCE,
         reject_potential_factor: float = 0.5,
         reject_radius_m: float = 1.2,
         min_label_agreement: float = 0.7,
@@ -186,16 +186,19 @@ class ConfirmTarget(SemExpBehaviour):
         #: The label the first view voted for (None until it has), and every voting position, first first.
         self._label: str | None = None
         self._vote_points: list[np.ndarray] = []
-        self._votes = 0
         self._views = 0
         self._job: PerceptionJob | None = None
 
     def initialise(self) -> None:
         self._label = None
-        self._votes = 0
         self._views = 0
         self._vote_points = []
         self._job = None
+
+    @property
+    def _votes(self) -> int:
+        """Further views that agreed with the first (the first view's own vote is not counted)."""
+        return max(0, len(self._vote_points) - 1)
 
     def _aligned(self, label: str) -> bool:
         return self.names_instructed_object(label, threshold=self.align_threshold)
@@ -321,7 +324,6 @@ class ConfirmTarget(SemExpBehaviour):
             vote is not None
             and np.linalg.norm(vote[1][:2] - self._vote_points[0][:2]) <= self.consistency_radius_m
         ):
-            self._votes += 1
             self._vote_points.append(vote[1])
         if self._votes >= self.extra_views:
             return self._succeed()

@@ -30,7 +30,7 @@ from typing import NamedTuple
 import numpy as np
 import py_trees
 
-from behaviours.base import SemExpBehaviour
+from behaviours.base import INSTRUCTED_OBJECT_RELEVANCE, SemExpBehaviour
 from behaviours.spec import BuildContext, ParamSpec
 from semexp_bt.evidence import calibrate, candidate_box
 from semexp_bt.frontier import depth_frontiers
@@ -49,9 +49,6 @@ class Offer(NamedTuple):
     is_place: bool
     score: float | None = None  # raw Eq. 2 score of the arbitration candidate behind it
 
-
-#: Relevance at which a label names the instructed object itself (ConfirmTarget's default align_threshold).
-INSTRUCTED_OBJECT_RELEVANCE = 0.9
 
 #: Label of a geometric frontier node (the relevance scorer sees it like a VLM's direction label).
 FRONTIER_LABEL = "unexplored area"

@@ -832,11 +832,11 @@ def require_ray_head_answers(address: str, *, timeout_s: float = RAY_CONNECT_TIM
     """
     if address == "auto" or address.startswith("ray://"):
         return
-    host, _, port = address.rpartition(":")
+    host, port = _host_and_port(address)
     if not host or not port.isdigit():
         raise HarnessError(f"--ray-address {address!r}: expected 'auto', 'ray://host:port' or 'host:port'")
     try:
-        with socket.create_connection((host.strip("[]"), int(port)), timeout=timeout_s):
+        with socket.create_connection((host, int(port)), timeout=timeout_s):
             pass
     except OSError as exc:
         raise HarnessError(
@@ -845,9 +845,14 @@ def require_ray_head_answers(address: str, *, timeout_s: float = RAY_CONNECT_TIM
         ) from None
 
 
+def _host_and_port(address: str) -> tuple[str, str]:
+    """``[ray://]host:port`` -> (host without IPv6 brackets, port text)."""
+    host, _, port = address.removeprefix("ray://").rpartition(":")
+    return host.strip("[]"), port
+
+
 def _is_loopback(address: str) -> bool:
-    host = address.removeprefix("ray://").rsplit(":", 1)[0].strip("[]")
-    return host in ("127.0.0.1", "localhost", "::1")
+    return _host_and_port(address)[0] in ("127.0.0.1", "localhost", "::1")
 
 
 def _import_ray_for(address: str) -> Any:

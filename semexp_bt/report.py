@@ -337,9 +337,10 @@ def throughput_by_fidelity(rows: Sequence[Mapping[str, Any]]) -> dict[str, dict[
     over the episodes' own harness wall times (model loading and process start included), which does
     not depend on how many workers ran them.
     """
+    finished = ok_rows(rows)
     out: dict[str, dict[str, float]] = {}
-    for fidelity in sorted({str(r.get("fidelity")) for r in ok_rows(rows)}):
-        group = [r for r in ok_rows(rows) if str(r.get("fidelity")) == fidelity]
+    for fidelity in sorted({str(r.get("fidelity")) for r in finished}):
+        group = [r for r in finished if str(r.get("fidelity")) == fidelity]
         busy_s = sum(float(r.get("harness_wall_s") or r.get("wall_time_s") or 0.0) for r in group)
         ratio = wall_per_sim_second(group)
         out[fidelity] = {
