@@ -8,7 +8,7 @@ sides). Depth is aligned to colour and valid from 0.3 m to 10 m; anything outsid
 Rendering runs at the native size divided by ``CameraConfig.downscale`` (default 2: 320x240) and the
 intrinsics scale with it. One ``observe`` is two GL passes: a lit colour pass whose depth buffer is read
 in the same ``mjr_readPixels`` call, and a flat-colour segmentation pass (``mjRND_SEGMENT`` and
-``mjRND_IDCOLOR``). Shadows, reflections, haze, fog and multisampling are off (and the skybox unless the
+``mjRND_IDCOLOR``). A depth-only render (the local planner's, at 12 Hz) is one flat-colour pass. Shadows, reflections, haze, fog and multisampling are off (and the skybox unless the
 scene is outdoor): they cost the software (llvmpipe) rasteriser time and a detector emulator does not
 need them.
 
@@ -273,6 +273,16 @@ class RgbdCamera:
             self._rgb if read_rgb else None, self._depth if read_depth else None, self._rect, self._mjr
         )
 
+    def _depth_pass(self) -> None:
+        # Flat colours (segmentation mode) skip lighting and textures, which cost llvmpipe about a
+        # quarter of the pass; the depth buffer is the same to the bit (tests/test_camera.py checks it).
+        self._scene.flags[mujoco.mjtRndFlag.mjRND_SEGMENT] = True
+        try:
+            mujoco.mjr_render(self._rect, self._scene, self._mjr)
+            mujoco.mjr_readPixels(None, self._depth, self._rect, self._mjr)
+        finally:
+            self._scene.flags[mujoco.mjtRndFlag.mjRND_SEGMENT] = False
+
     def _depth_metres(self) -> npt.NDArray[np.float32]:
         depth = depth_from_reversed_z(np.flipud(self._depth), near_m=self._near_m, far_m=self._far_m)
         valid = (depth >= self._config.min_depth_m) & (depth <= self._config.max_depth_m)
@@ -321,7 +331,7 @@ class RgbdCamera:
     def render_depth(self, data: mujoco.MjData) -> npt.NDArray[np.float32]:
         """Depth only, in metres along the optical axis."""
         self._update_scene(data)
-        self._rgbd_pass(read_rgb=False, read_depth=True)
+        self._depth_pass()
         return self._depth_metres()
 
     def render_segmentation(self, data: mujoco.MjData) -> npt.NDArray[np.int32]:

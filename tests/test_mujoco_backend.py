@@ -16,6 +16,7 @@ from robots.mjcf_scene import build_mjcf, geom_object_ids, object_id_from_geom_n
 from robots.mujoco_backend import BaseMotionLimits, MujocoRobot
 from semexp_bt.scene import SceneObject, SceneSpec
 from semexp_bt.types import BACKGROUND_OBJECT_ID, InvalidInputError, Pose2D, Twist
+from sims.catalogue import build_scene
 
 LEVEL_CAMERA = CameraConfig(mount_pitch_down_deg=0.0)
 BOX_ID = 7
@@ -500,3 +501,21 @@ def test_depth_only_observation_matches_the_full_one_and_teleport_moves_the_view
         )
     finally:
         level_robot.teleport(Pose2D(0.0, 0.0, 0.0))
+
+
+@pytest.mark.parametrize("scene_name", ["garden_sim", "laboratory"])
+def test_flat_colour_depth_pass_reads_the_lit_pass_depth_to_the_bit(scene_name: str) -> None:
+    # The local planner's depth-only render skips lighting and textures; its depth must not change.
+    scene = build_scene(scene_name, seed=0)
+    xs, ys = scene.bounds_m[0::2], scene.bounds_m[1::2]
+    centre = Pose2D(0.5 * (xs[0] + xs[1]), 0.5 * (ys[0] + ys[1]), 0.0)
+    robot = MujocoRobot(scene=scene, fidelity="kinematic", start_pose=centre, seed=0)
+    try:
+        for yaw in (0.0, 2.1, 4.2):
+            robot.teleport(Pose2D(centre.x_m, centre.y_m, yaw))
+            full = robot.observe()
+            depth_only = robot.observe_depth()
+            assert np.count_nonzero(full.depth_m) > 1000
+            np.testing.assert_array_equal(depth_only.depth_m, full.depth_m)
+    finally:
+        robot.close()
