@@ -284,12 +284,9 @@ def build_mjcf(scene: SceneSpec, *, fidelity: Fidelity, camera: CameraConfig | N
         )
 
     visual = ET.SubElement(root, "visual")
-    ET.SubElement(
-        visual,
-        "global",
-        offwidth=str(max(640, camera.width_px)),
-        offheight=str(max(480, camera.height_px)),
-    )
+    # The offscreen buffer is the head camera's render size: every pass clears the whole buffer, and a
+    # larger one costs llvmpipe time for pixels no one reads.
+    ET.SubElement(visual, "global", offwidth=str(camera.width_px), offheight=str(camera.height_px))
     # offsamples=0: no multisampling (it would blend segmentation ids at edges and costs the software
     # rasteriser most); shadowsize=0: no shadow map.
     ET.SubElement(visual, "quality", shadowsize="0", offsamples="0")
