@@ -68,7 +68,7 @@ def _add_sweep_options(parser: argparse.ArgumentParser) -> None:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    sub = parser.add_subparsers(dest="kind", metavar="{core,tree,gait,missions,paper,report}")
+    sub = parser.add_subparsers(dest="kind", metavar="{core,tree,gait,missions,paper,report,compare}")
     sub.required = True
     core = sub.add_parser("core", help="latency of arbitration, memory update and decision")
     core.add_argument("--json", type=Path, default=None, help="write the figures here as JSON")
@@ -140,6 +140,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     report.add_argument("dir", type=Path, help="a sweep's output folder")
     report.add_argument("--no-plots", action="store_true", help="tables only")
 
+    compare = sub.add_parser(
+        "compare", help="two sweeps episode by episode: same results? wall time before and after"
+    )
+    compare.add_argument("before", type=Path, help="the first sweep's output folder")
+    compare.add_argument("after", type=Path, help="the second sweep's output folder")
+    compare.add_argument("--json", type=Path, default=None, help="write the comparison here as JSON")
+
 
 def run(args: argparse.Namespace) -> int:
     if args.kind == "core":
@@ -183,6 +190,8 @@ def run(args: argparse.Namespace) -> int:
             return _paper(args)
         if args.kind == "report":
             return _report(args)
+        if args.kind == "compare":
+            return _compare(args)
     except (HarnessError, FileNotFoundError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
@@ -279,6 +288,23 @@ def _report(args: argparse.Namespace) -> int:
 
     print(f"report: {write_report(args.dir, plots=not args.no_plots)}")
     return 0
+
+
+def _compare(args: argparse.Namespace) -> int:
+    from semexp_bt.harness import EPISODES_FILE, HarnessError, load_rows
+    from semexp_bt.sweep_compare import compare_sweeps, format_comparison, write_json
+
+    for folder in (args.before, args.after):
+        if not (folder / EPISODES_FILE).is_file():
+            raise HarnessError(f"compare: {folder / EPISODES_FILE} does not exist")
+    comparison = compare_sweeps(load_rows(args.before), load_rows(args.after))
+    print(format_comparison(comparison, before=args.before, after=args.after))
+    if args.json is not None:
+        print(f"json: {write_json(comparison, args.json)}")
+    if comparison.matched == 0:
+        print("error: the two sweeps share no finished episode", file=sys.stderr)
+        return 2
+    return 1 if comparison.differing else 0
 
 
 def _or(value: int | None, default: int) -> int:

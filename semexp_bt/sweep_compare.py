@@ -1,0 +1,133 @@
+"""Compare two sweeps episode by episode: are the results the same, and how did the wall time change?
+
+A change meant to make episodes faster without changing them (a vectorised map update, a cheaper render
+pass) is checked by running the same grid before and after it and comparing the rows by key
+(``scene/seed/strategy/fidelity/config_hash``). Everything in a row is compared except the fields that
+measure the machine rather than the episode (:data:`WALL_CLOCK_FIELDS`). The wall time of the matched
+episodes, before and after, gives the change's effect on whole episodes under the same grid.
+
+Example::
+
+    semexp-bt bench missions --scenes office,road --seeds 0-1 --out runs/before   # on the old commit
+    semexp-bt bench missions --scenes office,road --seeds 0-1 --out runs/after    # on the new commit
+    semexp-bt bench compare runs/before runs/after
+
+The exit status is 0 when every matched episode is identical, 1 when some differ (each is listed with
+the fields that differ), 2 when the two folders share no episode.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+#: Row fields that measure the machine, not the episode: stage and tick wall times, the episode's and the
+#: harness's wall time, and the mission file's path (the key's config hash already covers its content).
+WALL_CLOCK_FIELDS = frozenset({"timings", "tick_wall_ms", "wall_time_s", "harness_wall_s", "mission"})
+
+
+@dataclass(frozen=True)
+class SweepComparison:
+    """Two sweeps' rows matched by key.
+
+    Attributes:
+        matched: keys finished (status ``ok``) in both sweeps.
+        differing: key -> names of the fields that differ, for matched keys whose rows differ.
+        only_before: finished keys only the first sweep has.
+        only_after: finished keys only the second sweep has.
+        wall_before_s: harness wall time of the matched episodes in the first sweep.
+        wall_after_s: the same in the second sweep.
+        sim_s: simulated time of the matched episodes (from the first sweep).
+    """
+
+    matched: int
+    differing: dict[str, list[str]] = field(default_factory=dict)
+    only_before: int = 0
+    only_after: int = 0
+    wall_before_s: float = 0.0
+    wall_after_s: float = 0.0
+    sim_s: float = 0.0
+
+    @property
+    def identical(self) -> int:
+        """Matched episodes whose rows agree on every field but the wall-clock ones."""
+        return self.matched - len(self.differing)
+
+    def to_dict(self) -> dict[str, Any]:
+        ratio = self.wall_after_s / self.wall_before_s if self.wall_before_s > 0 else None
+        return {
+            "matched": self.matched,
+            "identical": self.identical,
+            "differing": self.differing,
+            "only_before": self.only_before,
+            "only_after": self.only_after,
+            "wall_before_s": round(self.wall_before_s, 3),
+            "wall_after_s": round(self.wall_after_s, 3),
+            "wall_ratio": None if ratio is None else round(ratio, 4),
+            "sim_s": round(self.sim_s, 3),
+        }
+
+
+def _finished(rows: Sequence[Mapping[str, Any]]) -> dict[str, Mapping[str, Any]]:
+    return {row["key"]: row for row in rows if row.get("status") == "ok" and "key" in row}
+
+
+def _differing_fields(before: Mapping[str, Any], after: Mapping[str, Any]) -> list[str]:
+    names = (set(before) | set(after)) - WALL_CLOCK_FIELDS
+    return sorted(name for name in names if before.get(name) != after.get(name))
+
+
+def compare_sweeps(
+    before: Sequence[Mapping[str, Any]], after: Sequence[Mapping[str, Any]]
+) -> SweepComparison:
+    """Match two sweeps' finished rows by key and compare them field by field.
+
+    Args:
+        before: rows of the first sweep (``harness.load_rows``).
+        after: rows of the second sweep.
+    """
+    first, second = _finished(before), _finished(after)
+    common = [key for key in first if key in second]
+    differing = {}
+    for key in common:
+        fields = _differing_fields(first[key], second[key])
+        if fields:
+            differing[key] = fields
+    return SweepComparison(
+        matched=len(common),
+        differing=differing,
+        only_before=len(set(first) - set(second)),
+        only_after=len(set(second) - set(first)),
+        wall_before_s=sum(float(first[key].get("harness_wall_s") or 0.0) for key in common),
+        wall_after_s=sum(float(second[key].get("harness_wall_s") or 0.0) for key in common),
+        sim_s=sum(float(first[key].get("sim_time_s") or 0.0) for key in common),
+    )
+
+
+def format_comparison(comparison: SweepComparison, *, before: Path, after: Path) -> str:
+    """A short text summary: matched, identical, differing (with fields), wall time before and after."""
+    c = comparison
+    lines = [
+        f"{c.matched} episodes in both {before} and {after} "
+        f"({c.only_before} only in the first, {c.only_after} only in the second)",
+        f"identical apart from wall-clock fields: {c.identical} of {c.matched}",
+    ]
+    for key, fields in c.differing.items():
+        lines.append(f"  differs: {key}: {', '.join(fields)}")
+    if c.wall_before_s > 0 and c.sim_s > 0:
+        change = 100.0 * (c.wall_after_s / c.wall_before_s - 1.0)
+        lines.append(
+            f"wall time of these episodes: {c.wall_before_s:.1f} s -> {c.wall_after_s:.1f} s ({change:+.0f} %); "
+            f"per simulated second {c.wall_before_s / c.sim_s:.3f} s -> {c.wall_after_s / c.sim_s:.3f} s"
+        )
+    return "\n".join(lines)
+
+
+def write_json(comparison: SweepComparison, path: Path) -> Path:
+    """Write :meth:`SweepComparison.to_dict` to ``path``."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(comparison.to_dict(), indent=2) + "\n")
+    return path
