@@ -25,6 +25,7 @@ Example:
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from collections.abc import Mapping, Sequence
 
@@ -141,13 +142,18 @@ class Decide(SemExpBehaviour):
         if kind == "oracle":
             # Privileged: the runner hands the true goal to the oracle strategy only.
             distance = self.services.privileged_goal_distance
-            goal_xy = self.services.privileged_goal_xy
-            if distance is None and goal_xy is None:
-                raise RuntimeError("strategy 'oracle' needs services.privileged_goal_xy (set by the runner)")
-            goal_distances = {
-                n.node_id: (distance((n.position_m[0], n.position_m[1])) if distance is not None
-                            else math.hypot(n.position_m[0] - goal_xy[0], n.position_m[1] - goal_xy[1]))
-                for n in nodes
-            }  # fmt: skip
+            if distance is None:
+                goal_xy = self.services.privileged_goal_xy
+                if goal_xy is None:
+                    raise RuntimeError(
+                        "strategy 'oracle' needs services.privileged_goal_xy (set by the runner)"
+                    )
+                distance = functools.partial(_straight_line_distance, goal_xy=goal_xy)
+            goal_distances = {n.node_id: distance((n.position_m[0], n.position_m[1])) for n in nodes}
         return select_subgoal(kind, nodes=nodes, instruction=instruction, relevance=self.services.relevance,
                               travel_costs=costs, config=config, goal_distances_m=goal_distances)  # fmt: skip
+
+
+def _straight_line_distance(xy: tuple[float, float], *, goal_xy: tuple[float, float]) -> float:
+    """The oracle's fallback when no geodesic distance is given: straight to the goal."""
+    return math.hypot(xy[0] - goal_xy[0], xy[1] - goal_xy[1])

@@ -93,7 +93,8 @@ class StuckGuard(SemExpBehaviour):
             self.feedback_message = (
                 f"no progress: not {self.min_approach_m:.2f} m closer in {self.approach_window_s:.0f} s"
             )
-            self.services.log_event("no_progress", distance_m=round(self._approach[1], 3))
+            best_distance_m = self._approach[1] if self._approach is not None else float("nan")
+            self.services.log_event("no_progress", distance_m=round(best_distance_m, 3))
             return py_trees.common.Status.FAILURE
         t0, x0, y0, yaw0 = self._anchor
         pose = self.services.robot.base_pose()

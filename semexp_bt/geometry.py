@@ -556,7 +556,7 @@ def wrap_angle(angle_rad: float) -> float:
     return -math.pi if wrapped >= math.pi else wrapped
 
 
-def world_to_base(point_xy: Sequence[float], pose: Pose2D) -> tuple[float, float]:
+def world_to_base(point_xy: Sequence[float] | FloatArray, pose: Pose2D) -> tuple[float, float]:
     """Express a ``map`` point in the base frame of ``pose``: ``(x_fwd, y_left)`` in metres."""
     require_finite("point_xy", point_xy)
     require_finite("pose", (pose.x_m, pose.y_m, pose.yaw_rad))

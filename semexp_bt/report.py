@@ -412,8 +412,10 @@ def write_report(
     if latency:
         parts += ["", "## Per-stage latency and rate", "", latency_markdown(latency)]
     if plots:
-        figures = write_plots(out_dir, rows, summaries=summaries, scenes=scenes, strategies=strategies)
-        parts += ["", "## Plots", ""] + [f"![{f.stem}]({f.relative_to(out_dir).as_posix()})" for f in figures]
+        plot_files = write_plots(out_dir, rows, summaries=summaries, scenes=scenes, strategies=strategies)
+        parts += ["", "## Plots", ""] + [
+            f"![{f.stem}]({f.relative_to(out_dir).as_posix()})" for f in plot_files
+        ]
     failures = [r for r in rows if r.get("status") != STATUS_OK]
     if failures:
         parts += ["", "## Failed episodes", ""]

@@ -17,7 +17,7 @@ import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 import py_trees
@@ -29,6 +29,9 @@ from semexp_bt.memory import TopologicalMemory
 from semexp_bt.metrics import DEFAULT_CLEARANCE_M, DEFAULT_SUCCESS_RADIUS_M
 from semexp_bt.recorder import TickRecorder
 from semexp_bt.strategies import Strategy, resolve_strategy
+
+if TYPE_CHECKING:
+    from robots.mjcf_scene import Fidelity
 
 #: One tree tick per 20 ms of backend time: the gait's 50 Hz.
 TICK_PERIOD_S = 0.02
@@ -104,7 +107,8 @@ def run_mission(options: RunOptions) -> dict[str, Any]:
     if errors or settings is None:
         raise MissionLoadError(errors)
     strategy: Strategy = resolve_strategy(options.strategy)
-    fidelity = options.fidelity or settings.fidelity or "kinematic"
+    # MujocoRobot rejects anything but the two fidelities, naming the value.
+    fidelity = cast(Fidelity, options.fidelity or settings.fidelity or "kinematic")
 
     scene = build_scene(options.scene, seed=options.seed)
     episode = sample_episode(scene, seed=options.seed)

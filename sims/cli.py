@@ -22,7 +22,7 @@ import os
 import sys
 import zlib
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
@@ -35,7 +35,7 @@ from sims.geodesic import GeodesicOracle
 EXIT_CAMERA_UNAVAILABLE = 3
 #: Pixels per metre of the top-down figure (capped for large scenes by the figure size).
 _TOPDOWN_INCHES_PER_M = 0.55
-_ROLE_EDGE = {
+_ROLE_EDGE: dict[str, tuple[str, float, Literal["-", "--"]]] = {
     "goal": ("#00c040", 3.0, "-"),
     "distractor": ("#ff8c00", 2.0, "--"),
     "occluder": ("#303030", 1.2, "-"),

@@ -88,7 +88,7 @@ def footprint_geoms(obj: SceneObject) -> list[tuple[str, float, float, float, fl
     """
     x, y, z = obj.position_m
     cos_y, sin_y = math.cos(obj.yaw_rad), math.sin(obj.yaw_rad)
-    geoms = []
+    geoms: list[tuple[str, float, float, float, float, float]] = []
     if z - obj.size_m[2] < ROBOT_CLEARANCE_HEIGHT_M:
         geoms.append((obj.shape, x, y, obj.yaw_rad, obj.size_m[0], obj.size_m[1]))
     for part in obj.parts:

@@ -446,6 +446,37 @@ def test_decide_falls_back_to_unreached_nodes_when_every_potential_decayed(tmp_p
     assert services.decision_log[-1]["reason"] == "empty candidate set"
 
 
+def test_oracle_decide_uses_the_privileged_goal_and_refuses_to_run_without_it(tmp_path: Path) -> None:
+    """The oracle strategy ranks by travel + true goal distance: geodesic when given, else straight line."""
+    tree_file = tmp_path / "decide.yaml"
+    tree_file.write_text("tree:\n  type: Decide\n  name: Decide\n")
+    robot = NullRobot(start_pose=Pose2D(0.0, 0.0, 0.0))
+    services = make_services(robot, seeing([]))
+    services.strategy = {"decision": "oracle"}
+    board = prepare_board(instructions=["find the fire extinguisher"], start_pose=robot.base_pose(),
+                          memory=TopologicalMemory())  # fmt: skip
+    memory = board.memory
+    memory.add_master(position_m=(0.0, 0.0, 0.0), stamp_s=0.0)
+    east = memory.update(position_m=(2.0, 0.0, 0.3), label="unexplored area", confidence=0.6, stamp_s=0.0)
+    west = memory.update(position_m=(-2.0, 0.0, 0.3), label="unexplored area", confidence=0.6, stamp_s=0.0)
+    tree = build_tree(mission_path=tree_file, services=services)
+
+    services.privileged_goal_xy = (-6.0, 0.0)
+    tree.tick()
+    print(py_trees.display.unicode_tree(tree.root, show_status=True))
+    assert tree.root.status == py_trees.common.Status.SUCCESS
+    assert board.subgoal.node_id == west.node_id
+
+    # A geodesic distance overrides the straight line (here: the way west is walled off).
+    services.privileged_goal_distance = lambda xy: 1.0 if xy[0] > 0.0 else 50.0
+    tree.tick()
+    assert board.subgoal.node_id == east.node_id
+
+    services.privileged_goal_xy = services.privileged_goal_distance = None
+    with pytest.raises(RuntimeError, match="privileged_goal_xy"):
+        tree.tick()
+
+
 REVIVE_TREE = """
 tree:
   type: Sequence

@@ -119,7 +119,7 @@ def _validate(data: Any, *, source: str) -> None:
     for key in ("label", "category"):
         _require(perimeter, key, str, where=f"{source}: perimeter")
     for key in ("height_m", "thickness_m"):
-        _require(perimeter, key, int | float, where=f"{source}: perimeter")
+        _require(perimeter, key, (int, float), where=f"{source}: perimeter")
     _numbers(
         _require(perimeter, "rgba", list, where=f"{source}: perimeter"), 4, where=f"{source}: perimeter.rgba"
     )
