@@ -8,9 +8,9 @@ sides). Depth is aligned to colour and valid from 0.3 m to 10 m; anything outsid
 Rendering runs at the native size divided by ``CameraConfig.downscale`` (default 2: 320x240) and the
 intrinsics scale with it. One ``observe`` is two GL passes: a lit colour pass whose depth buffer is read
 in the same ``mjr_readPixels`` call, and a flat-colour segmentation pass (``mjRND_SEGMENT`` and
-``mjRND_IDCOLOR``). A depth-only render (the local planner's, at 12 Hz) is one flat-colour pass. Shadows, reflections, haze, fog and multisampling are off (and the skybox unless the
-scene is outdoor): they cost the software (llvmpipe) rasteriser time and a detector emulator does not
-need them.
+``mjRND_IDCOLOR``). A depth-only render (the local planner's, at 12 Hz) is one flat-colour pass.
+Shadows, reflections, haze, fog and multisampling are off (and the skybox unless the scene is outdoor):
+they cost the software (llvmpipe) rasteriser time and a detector emulator does not need them.
 
 Depth: MuJoCo's offscreen depth buffer is reversed-Z (``mjDEPTH_ZEROFAR``: 1 at the near plane, 0 at
 the far plane). For a perspective projection with near n and far f, a window depth ``z_w`` maps to the
@@ -274,8 +274,8 @@ class RgbdCamera:
         )
 
     def _depth_pass(self) -> None:
-        # Flat colours (segmentation mode) skip lighting and textures, which cost llvmpipe about a
-        # quarter of the pass; the depth buffer is the same to the bit (tests/test_camera.py checks it).
+        # Flat colours (segmentation mode) skip lighting and textures, which the software rasteriser pays
+        # for per vertex and pixel; the depth buffer is the same to the bit (tests/test_mujoco_backend.py).
         self._scene.flags[mujoco.mjtRndFlag.mjRND_SEGMENT] = True
         try:
             mujoco.mjr_render(self._rect, self._scene, self._mjr)

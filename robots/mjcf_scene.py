@@ -284,8 +284,8 @@ def build_mjcf(scene: SceneSpec, *, fidelity: Fidelity, camera: CameraConfig | N
         )
 
     visual = ET.SubElement(root, "visual")
-    # The offscreen buffer is the head camera's render size: every pass clears the whole buffer, and a
-    # larger one costs llvmpipe time for pixels no one reads.
+    # The offscreen buffer is the head camera's render size: the software rasteriser spends time on a
+    # larger buffer's pixels (clearing them) that no pass draws or reads.
     ET.SubElement(visual, "global", offwidth=str(camera.width_px), offheight=str(camera.height_px))
     # offsamples=0: no multisampling (it would blend segmentation ids at edges and costs the software
     # rasteriser most); shadowsize=0: no shadow map.

@@ -124,7 +124,7 @@ class OccupancyMap:
             return 0
         # Free space: cells along each ray (in the plane) before its end, sampled at half a cell. A frame
         # has about 2,000 rays and 200,000 samples: x and y are worked one axis at a time, because
-        # (N, 2) arithmetic costs numpy twice as much as two (N,) ones for the same values.
+        # numpy's (N, 2) gathers and broadcasts cost more than two (N,) ones for the same values.
         delta = pts[:, :2] - origin[:2]
         length = np.linalg.norm(delta, axis=1)
         step = 0.5 * cfg.resolution_m
