@@ -108,7 +108,7 @@ def run_mission(options: RunOptions) -> dict[str, Any]:
         raise MissionLoadError(errors)
     strategy: Strategy = resolve_strategy(options.strategy)
     # MujocoRobot rejects anything but the two fidelities, naming the value.
-    fidelity = cast(Fidelity, options.fidelity or settings.fidelity or "kinematic")
+    fidelity = cast("Fidelity", options.fidelity or settings.fidelity or "kinematic")
 
     scene = build_scene(options.scene, seed=options.seed)
     episode = sample_episode(scene, seed=options.seed)

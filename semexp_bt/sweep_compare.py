@@ -13,7 +13,8 @@ Example::
     semexp-bt bench compare runs/before runs/after
 
 The exit status is 0 when every matched episode is identical, 1 when some differ (each is listed with
-the fields that differ), 2 when the two folders share no episode.
+the fields that differ; an episode that finished in one sweep and failed in the other differs in
+``status``), 2 when the two folders share no episode.
 """
 
 from __future__ import annotations
@@ -34,13 +35,16 @@ class SweepComparison:
     """Two sweeps' rows matched by key.
 
     Attributes:
-        matched: keys finished (status ``ok``) in both sweeps.
-        differing: key -> names of the fields that differ, for matched keys whose rows differ.
+        matched: keys both sweeps have, finished (status ``ok``) in at least one of them.
+        differing: key -> names of the fields that differ, for matched keys whose rows differ; an
+            episode that finished in one sweep and failed (``error``, ``timeout``) in the other differs
+            in ``status``.
         only_before: finished keys only the first sweep has.
         only_after: finished keys only the second sweep has.
-        wall_before_s: harness wall time of the matched episodes in the first sweep.
+        wall_before_s: harness wall time of the episodes finished in both, in the first sweep.
         wall_after_s: the same in the second sweep.
-        sim_s: simulated time of the matched episodes (from the first sweep).
+        sim_before_s: simulated time of the episodes finished in both, in the first sweep.
+        sim_after_s: the same in the second sweep.
     """
 
     matched: int
@@ -49,7 +53,8 @@ class SweepComparison:
     only_after: int = 0
     wall_before_s: float = 0.0
     wall_after_s: float = 0.0
-    sim_s: float = 0.0
+    sim_before_s: float = 0.0
+    sim_after_s: float = 0.0
 
     @property
     def identical(self) -> int:
@@ -67,17 +72,27 @@ class SweepComparison:
             "wall_before_s": round(self.wall_before_s, 3),
             "wall_after_s": round(self.wall_after_s, 3),
             "wall_ratio": None if ratio is None else round(ratio, 4),
-            "sim_s": round(self.sim_s, 3),
+            "sim_before_s": round(self.sim_before_s, 3),
+            "sim_after_s": round(self.sim_after_s, 3),
         }
 
 
-def _finished(rows: Sequence[Mapping[str, Any]]) -> dict[str, Mapping[str, Any]]:
-    return {row["key"]: row for row in rows if row.get("status") == "ok" and "key" in row}
+def _by_key(rows: Sequence[Mapping[str, Any]]) -> dict[str, Mapping[str, Any]]:
+    return {row["key"]: row for row in rows if "key" in row}
+
+
+def _finished(row: Mapping[str, Any]) -> bool:
+    return row.get("status") == "ok"
+
+
+def _canonical(value: Any) -> str:
+    # JSON text compares NaN equal to NaN (both read back as new float objects, and nan != nan).
+    return json.dumps(value, sort_keys=True)
 
 
 def _differing_fields(before: Mapping[str, Any], after: Mapping[str, Any]) -> list[str]:
     names = (set(before) | set(after)) - WALL_CLOCK_FIELDS
-    return sorted(name for name in names if before.get(name) != after.get(name))
+    return sorted(name for name in names if _canonical(before.get(name)) != _canonical(after.get(name)))
 
 
 def compare_sweeps(
@@ -89,21 +104,27 @@ def compare_sweeps(
         before: rows of the first sweep (``harness.load_rows``).
         after: rows of the second sweep.
     """
-    first, second = _finished(before), _finished(after)
-    common = [key for key in first if key in second]
+    first, second = _by_key(before), _by_key(after)
+    matched = [k for k in first if k in second and (_finished(first[k]) or _finished(second[k]))]
+    both_finished = [k for k in matched if _finished(first[k]) and _finished(second[k])]
     differing = {}
-    for key in common:
-        fields = _differing_fields(first[key], second[key])
+    for key in matched:
+        fields = _differing_fields(first[key], second[key]) if key in both_finished else ["status"]
         if fields:
             differing[key] = fields
+
+    def total(rows: Mapping[str, Mapping[str, Any]], name: str) -> float:
+        return sum(float(rows[key].get(name) or 0.0) for key in both_finished)
+
     return SweepComparison(
-        matched=len(common),
+        matched=len(matched),
         differing=differing,
-        only_before=len(set(first) - set(second)),
-        only_after=len(set(second) - set(first)),
-        wall_before_s=sum(float(first[key].get("harness_wall_s") or 0.0) for key in common),
-        wall_after_s=sum(float(second[key].get("harness_wall_s") or 0.0) for key in common),
-        sim_s=sum(float(first[key].get("sim_time_s") or 0.0) for key in common),
+        only_before=sum(1 for k, row in first.items() if _finished(row) and k not in second),
+        only_after=sum(1 for k, row in second.items() if _finished(row) and k not in first),
+        wall_before_s=total(first, "harness_wall_s"),
+        wall_after_s=total(second, "harness_wall_s"),
+        sim_before_s=total(first, "sim_time_s"),
+        sim_after_s=total(second, "sim_time_s"),
     )
 
 
@@ -117,11 +138,12 @@ def format_comparison(comparison: SweepComparison, *, before: Path, after: Path)
     ]
     for key, fields in c.differing.items():
         lines.append(f"  differs: {key}: {', '.join(fields)}")
-    if c.wall_before_s > 0 and c.sim_s > 0:
+    if c.wall_before_s > 0 and c.sim_before_s > 0 and c.sim_after_s > 0:
         change = 100.0 * (c.wall_after_s / c.wall_before_s - 1.0)
         lines.append(
-            f"wall time of these episodes: {c.wall_before_s:.1f} s -> {c.wall_after_s:.1f} s ({change:+.0f} %); "
-            f"per simulated second {c.wall_before_s / c.sim_s:.3f} s -> {c.wall_after_s / c.sim_s:.3f} s"
+            f"wall time of the episodes finished in both: {c.wall_before_s:.1f} s -> {c.wall_after_s:.1f} s "
+            f"({change:+.0f} %); per simulated second {c.wall_before_s / c.sim_before_s:.3f} s -> "
+            f"{c.wall_after_s / c.sim_after_s:.3f} s"
         )
     return "\n".join(lines)
 

@@ -56,10 +56,20 @@ def test_a_changed_result_is_reported_with_its_fields_and_failed_rows_are_not_ma
         {"key": "road/0", "status": "error", "error": "boom", "harness_wall_s": 1.0},
     ]
     comparison = compare_sweeps(before, after)
-    assert comparison.matched == 1
-    assert comparison.differing == {"office/0": ["final_pose", "outcome"]}
+    assert comparison.matched == 2
+    # The episode that crashed after the change is a difference, not something to leave out.
+    assert comparison.differing == {"office/0": ["final_pose", "outcome"], "road/0": ["status"]}
     assert comparison.identical == 0
-    assert comparison.only_before == 1
+    assert comparison.only_before == 0
+    assert comparison.wall_before_s == pytest.approx(30.0)  # only episodes finished in both
+
+
+def test_nan_fields_compare_equal_and_each_sweep_has_its_own_simulated_time() -> None:
+    before = [row("office/0", wall_s=30.0, min_clearance_m=float("nan"))]
+    after = [row("office/0", wall_s=15.0, min_clearance_m=float("nan"), sim_time_s=50.0)]
+    comparison = compare_sweeps(before, after)
+    assert comparison.differing == {"office/0": ["sim_time_s"]}
+    assert comparison.sim_before_s == pytest.approx(100.0) and comparison.sim_after_s == pytest.approx(50.0)
 
 
 def test_cli_exit_status_says_identical_differing_or_nothing_to_compare(
