@@ -98,7 +98,7 @@ def _differing_fields(before: Mapping[str, Any], after: Mapping[str, Any]) -> li
 def compare_sweeps(
     before: Sequence[Mapping[str, Any]], after: Sequence[Mapping[str, Any]]
 ) -> SweepComparison:
-    """Match two sweeps' finished rows by key and compare them field by field.
+    """Match two sweeps' rows by key and compare those finished in either, field by field.
 
     Args:
         before: rows of the first sweep (``harness.load_rows``).
