@@ -265,23 +265,26 @@ class RgbdCamera:
             self._model, data, self._option, None, self._camera, mujoco.mjtCatBit.mjCAT_ALL, self._scene
         )
 
+    def _pass(self, *, flat: bool, id_colours: bool, read_rgb: bool, read_depth: bool) -> None:
+        """One GL pass into ``_rgb``/``_depth``; flat (segmentation-mode) flags are reset afterwards."""
+        self._scene.flags[mujoco.mjtRndFlag.mjRND_SEGMENT] = flat
+        self._scene.flags[mujoco.mjtRndFlag.mjRND_IDCOLOR] = id_colours
+        try:
+            mujoco.mjr_render(self._rect, self._scene, self._mjr)
+            mujoco.mjr_readPixels(
+                self._rgb if read_rgb else None, self._depth if read_depth else None, self._rect, self._mjr
+            )
+        finally:
+            self._scene.flags[mujoco.mjtRndFlag.mjRND_SEGMENT] = False
+            self._scene.flags[mujoco.mjtRndFlag.mjRND_IDCOLOR] = False
+
     def _rgbd_pass(self, *, read_rgb: bool, read_depth: bool) -> None:
-        self._scene.flags[mujoco.mjtRndFlag.mjRND_SEGMENT] = False
-        self._scene.flags[mujoco.mjtRndFlag.mjRND_IDCOLOR] = False
-        mujoco.mjr_render(self._rect, self._scene, self._mjr)
-        mujoco.mjr_readPixels(
-            self._rgb if read_rgb else None, self._depth if read_depth else None, self._rect, self._mjr
-        )
+        self._pass(flat=False, id_colours=False, read_rgb=read_rgb, read_depth=read_depth)
 
     def _depth_pass(self) -> None:
         # Flat colours (segmentation mode) skip lighting and textures, which the software rasteriser pays
         # for per vertex and pixel; the depth buffer is the same to the bit (tests/test_mujoco_backend.py).
-        self._scene.flags[mujoco.mjtRndFlag.mjRND_SEGMENT] = True
-        try:
-            mujoco.mjr_render(self._rect, self._scene, self._mjr)
-            mujoco.mjr_readPixels(None, self._depth, self._rect, self._mjr)
-        finally:
-            self._scene.flags[mujoco.mjtRndFlag.mjRND_SEGMENT] = False
+        self._pass(flat=True, id_colours=False, read_rgb=False, read_depth=True)
 
     def _depth_metres(self) -> npt.NDArray[np.float32]:
         depth = depth_from_reversed_z(np.flipud(self._depth), near_m=self._near_m, far_m=self._far_m)
@@ -289,14 +292,7 @@ class RgbdCamera:
         return np.where(valid, depth, 0.0).astype(np.float32)
 
     def _segmentation_pass(self) -> npt.NDArray[np.int32]:
-        self._scene.flags[mujoco.mjtRndFlag.mjRND_SEGMENT] = True
-        self._scene.flags[mujoco.mjtRndFlag.mjRND_IDCOLOR] = True
-        try:
-            mujoco.mjr_render(self._rect, self._scene, self._mjr)
-            mujoco.mjr_readPixels(self._rgb, None, self._rect, self._mjr)
-        finally:
-            self._scene.flags[mujoco.mjtRndFlag.mjRND_SEGMENT] = False
-            self._scene.flags[mujoco.mjtRndFlag.mjRND_IDCOLOR] = False
+        self._pass(flat=True, id_colours=True, read_rgb=True, read_depth=False)
         # IDCOLOR paints scene geom i with colour i + 1 (little-endian RGB); 0 is the cleared background.
         colour = self._rgb.astype(np.int32)
         segment = np.flipud(colour[:, :, 0] | (colour[:, :, 1] << 8) | (colour[:, :, 2] << 16))

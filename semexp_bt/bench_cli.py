@@ -291,8 +291,9 @@ def _report(args: argparse.Namespace) -> int:
 
 
 def _compare(args: argparse.Namespace) -> int:
+    from semexp_bt.bench_core import write_json
     from semexp_bt.harness import EPISODES_FILE, HarnessError, load_rows
-    from semexp_bt.sweep_compare import compare_sweeps, format_comparison, write_json
+    from semexp_bt.sweep_compare import compare_sweeps, format_comparison
 
     for folder in (args.before, args.after):
         if not (folder / EPISODES_FILE).is_file():
@@ -300,7 +301,8 @@ def _compare(args: argparse.Namespace) -> int:
     comparison = compare_sweeps(load_rows(args.before), load_rows(args.after))
     print(format_comparison(comparison, before=args.before, after=args.after))
     if args.json is not None:
-        print(f"json: {write_json(comparison, args.json)}")
+        write_json(comparison.to_dict(), args.json)
+        print(f"json: {args.json}")
     if comparison.matched == 0:
         print("error: the two sweeps share no finished episode", file=sys.stderr)
         return 2

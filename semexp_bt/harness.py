@@ -793,8 +793,8 @@ def _run_pool(todo: list[EpisodeTask], *, run_fn: RunFunction, workers: int,
 def _run_ray(todo: list[EpisodeTask], *, run_fn: RunFunction, address: str, workers: int,
              accept: Callable[[dict[str, Any]], None]) -> None:  # fmt: skip
     """Ray tasks, one CPU each; ``workers`` caps the episodes in flight (0: the cluster's CPUs)."""
+    require_ray_head_answers(address)  # seconds cheaper than importing Ray, and it cannot hang
     ray = _import_ray_for(address)
-    require_ray_head_answers(address)
     ray.init(address=address, ignore_reinit_error=True, log_to_driver=False)
     limit = workers or max(1, int(ray.cluster_resources().get("CPU", 1)))
     remote = ray.remote(num_cpus=1, max_retries=0)(execute_task)

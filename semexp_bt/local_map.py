@@ -89,9 +89,12 @@ class OccupancyMap:
     # ------------------------------------------------------------------ geometry
     def cell_of(self, xy: FloatArray) -> npt.NDArray[np.int64]:
         """``(..., 2)`` world xy -> ``(..., 2)`` (row = x index, col = y index), unclipped."""
-        return np.floor((np.asarray(xy, dtype=float) - self._lower) / self.config.resolution_m).astype(
-            np.int64
-        )
+        xy = np.asarray(xy, dtype=float)
+        return np.stack([self._axis_index(xy[..., 0], 0), self._axis_index(xy[..., 1], 1)], axis=-1)
+
+    def _axis_index(self, values: FloatArray, axis: int) -> npt.NDArray[np.int64]:
+        """World coordinates along ``axis`` (0: x, 1: y) -> grid indices along it, unclipped."""
+        return np.floor((values - self._lower[axis]) / self.config.resolution_m).astype(np.int64)
 
     def centre_of(self, cells: npt.NDArray[np.int64]) -> FloatArray:
         return self._lower + (np.asarray(cells, dtype=float) + 0.5) * self.config.resolution_m
@@ -149,9 +152,7 @@ class OccupancyMap:
     def _accumulate_axes(self, grid: npt.NDArray[np.float32], x: FloatArray, y: FloatArray) -> None:
         if x.shape[0] == 0:
             return
-        # The same arithmetic as cell_of, one axis at a time.
-        rows = np.floor((x - self._lower[0]) / self.config.resolution_m).astype(np.int64)
-        cols = np.floor((y - self._lower[1]) / self.config.resolution_m).astype(np.int64)
+        rows, cols = self._axis_index(x, 0), self._axis_index(y, 1)
         inside = (rows >= 0) & (rows < self.size) & (cols >= 0) & (cols < self.size)
         if not inside.all():
             rows, cols = rows[inside], cols[inside]

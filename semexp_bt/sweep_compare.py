@@ -106,7 +106,7 @@ def compare_sweeps(
     """
     first, second = _by_key(before), _by_key(after)
     matched = [k for k in first if k in second and (_finished(first[k]) or _finished(second[k]))]
-    both_finished = [k for k in matched if _finished(first[k]) and _finished(second[k])]
+    both_finished = {k for k in matched if _finished(first[k]) and _finished(second[k])}
     differing = {}
     for key in matched:
         fields = _differing_fields(first[key], second[key]) if key in both_finished else ["status"]
@@ -146,10 +146,3 @@ def format_comparison(comparison: SweepComparison, *, before: Path, after: Path)
             f"{c.wall_after_s / c.sim_after_s:.3f} s"
         )
     return "\n".join(lines)
-
-
-def write_json(comparison: SweepComparison, path: Path) -> Path:
-    """Write :meth:`SweepComparison.to_dict` to ``path``."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(comparison.to_dict(), indent=2) + "\n")
-    return path
