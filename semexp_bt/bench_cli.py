@@ -21,6 +21,7 @@ import argparse
 import os
 import platform
 import shlex
+import signal
 import sys
 import time
 from pathlib import Path
@@ -217,8 +218,16 @@ def _split(text: str) -> tuple[str, ...]:
 def _sweep(args: argparse.Namespace, specs: list[SweepSpec]) -> SweepResult:
     from semexp_bt.harness import run_sweep
 
-    return run_sweep(specs, args.out, workers=args.workers, ray_address=args.ray_address,
-                     retry_failed=args.retry_failed, progress=None if args.quiet else sys.stderr)  # fmt: skip
+    def _stop(signum: int, frame: Any) -> None:
+        raise SystemExit(128 + signum)
+
+    # SIGTERM (kill PID) unwinds like Ctrl-C: the workers are stopped and the invocation is logged.
+    previous = signal.signal(signal.SIGTERM, _stop)
+    try:
+        return run_sweep(specs, args.out, workers=args.workers, ray_address=args.ray_address,
+                         retry_failed=args.retry_failed, progress=None if args.quiet else sys.stderr)  # fmt: skip
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 def _missions(args: argparse.Namespace) -> int:
@@ -273,6 +282,7 @@ def _paper(args: argparse.Namespace) -> int:
         "episodes": f"{len(rows)} in {args.out} ({result.ran} run by this invocation, "
         f"{result.errors} errors, {result.timeouts} timeouts)",
         "wall time of this invocation": f"{wall_s / 60:.1f} min with {args.workers} worker(s)",
+        "wall time of all invocations": _all_invocations(args.out),
         "episodes per hour per core": f"{per_core_h:.0f} ({options['fidelity']}; from the episodes' own wall times)",
     }
     results_path = args.results or (args.out / "results.md" if args.smoke else DOCS_DIR / "results.md")
@@ -307,6 +317,18 @@ def _compare(args: argparse.Namespace) -> int:
         print("error: the two sweeps share no finished episode", file=sys.stderr)
         return 2
     return 1 if comparison.differing else 0
+
+
+def _all_invocations(out_dir: Path) -> str:
+    """The sweep's total wall time, from ``DIR/invocations.jsonl`` (a resumed sweep has several lines)."""
+    from semexp_bt.harness import INVOCATIONS_FILE, load_invocations
+
+    invocations = load_invocations(out_dir)
+    total_s = sum(float(one["wall_s"]) for one in invocations)
+    ran = sum(int(one.get("ran") or 0) for one in invocations)
+    stopped = sum(not one.get("completed", True) for one in invocations)
+    return (f"{total_s / 60:.1f} min in {len(invocations)} invocation(s) ({stopped} stopped) that ran {ran} "
+            f"episodes ({out_dir / INVOCATIONS_FILE})")  # fmt: skip
 
 
 def _or(value: int | None, default: int) -> int:

@@ -10,7 +10,8 @@ start a new output folder after changing the method (``sweep.json`` records the 
 Rows go to ``DIR/episodes.jsonl``, appended by the parent process only, one flushed line per finished
 episode, so an interrupted sweep loses at most the episodes in flight. A rerun skips every key that
 already has a row (``retry_failed`` reruns the ``error`` and ``timeout`` rows; the newest row of a key
-wins when reading). Rows are flat-ish: the runner's record without the per-decision candidate lists,
+wins when reading). Each call appends its wall time, counts and code revision to ``DIR/invocations.jsonl``,
+also when it is stopped, so a sweep resumed over several invocations still has a total wall time. Rows are flat-ish: the runner's record without the per-decision candidate lists,
 per-event entries and bulky snapshots; decisions keep ``selected_node_id`` and ``oracle_node_id``
 (GNSA). Trajectories and memory snapshots of a few episodes per (scene, strategy) go to
 ``DIR/trajectories/*.json`` for the report's plots.
@@ -57,6 +58,8 @@ ROW_SCHEMA_VERSION = 1
 EPISODES_FILE = "episodes.jsonl"
 TRAJECTORY_DIR = "trajectories"
 SWEEP_META_FILE = "sweep.json"
+#: One line per call of :func:`run_sweep` on a folder: a resumed sweep's wall time is the sum of its lines.
+INVOCATIONS_FILE = "invocations.jsonl"
 
 STATUS_OK = "ok"
 STATUS_ERROR = "error"
@@ -689,6 +692,8 @@ def run_sweep(
         result.errors += row["status"] == STATUS_ERROR
         result.timeouts += row["status"] == STATUS_TIMEOUT
 
+    started_unix_s = time.time()
+    completed = False
     try:
         if not todo:
             pass
@@ -699,10 +704,57 @@ def run_sweep(
                 accept(execute_task(task, run_fn))
         else:
             _run_pool(todo, run_fn=run_fn, workers=workers, accept=accept)
+        completed = True
     finally:
         writer.close()
-    result.wall_s = time.monotonic() - started
+        result.wall_s = time.monotonic() - started
+        # Also on Ctrl-C or SIGTERM (the CLI turns it into an exception): a stopped invocation's wall
+        # time still counts towards the sweep's.
+        _log_invocation(out_dir, result, started_unix_s=started_unix_s, workers=workers,
+                        ray_address=ray_address, completed=completed)  # fmt: skip
     return result
+
+
+def _log_invocation(out_dir: Path, result: SweepResult, *, started_unix_s: float, workers: int,
+                    ray_address: str | None, completed: bool) -> None:  # fmt: skip
+    record = {
+        "started_unix_s": round(started_unix_s, 1),
+        "wall_s": round(result.wall_s, 1),
+        "ran": result.ran,
+        "skipped": result.skipped,
+        "total": result.total,
+        "errors": result.errors,
+        "timeouts": result.timeouts,
+        "workers": workers,
+        "ray_address": ray_address,
+        "completed": completed,
+        "git_revision": _git_revision(),
+    }
+    with (out_dir / INVOCATIONS_FILE).open("a", encoding="utf-8") as log:
+        log.write(json.dumps(record, separators=(",", ":")) + "\n")
+
+
+def load_invocations(out_dir: Path) -> list[dict[str, Any]]:
+    """The lines of ``DIR/invocations.jsonl`` (empty when the folder has none).
+
+    Raises:
+        HarnessError: naming the file and line of a line that is not a JSON object with a ``wall_s``.
+    """
+    path = Path(out_dir) / INVOCATIONS_FILE
+    if not path.is_file():
+        return []
+    records = []
+    for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), start=1):
+        if not line.strip():
+            continue
+        try:
+            record = json.loads(line)
+        except json.JSONDecodeError as exc:
+            raise HarnessError(f"{path}:{number}: not JSON ({exc.msg})") from exc
+        if not isinstance(record, dict) or not isinstance(record.get("wall_s"), (int, float)):
+            raise HarnessError(f"{path}:{number}: expected an object with a numeric 'wall_s'")
+        records.append(record)
+    return records
 
 
 def _write_meta(out_dir: Path, specs: Sequence[SweepSpec], *, workers: int, ray_address: str | None) -> None:

@@ -6,6 +6,7 @@ returns a runner-shaped record computed from the key; one test runs the real ``b
 
 from __future__ import annotations
 
+import argparse
 import json
 import math
 import os
@@ -290,6 +291,56 @@ def test_a_torn_last_line_is_skipped_and_rerun(tmp_path: Path) -> None:
     with open(os.devnull, "w") as quiet:
         assert len(load_rows(tmp_path, stream=quiet)) == 7
     assert sweep(tmp_path).ran == 1
+
+
+def interrupted_run(task: EpisodeTask) -> dict[str, Any]:
+    """Seed 1 is where the user presses Ctrl-C."""
+    if task.key.seed == 1:
+        raise KeyboardInterrupt
+    return fake_record(task)
+
+
+def test_every_invocation_is_logged_so_a_resumed_sweep_has_a_total_wall_time(tmp_path: Path) -> None:
+    with pytest.raises(KeyboardInterrupt):
+        sweep(tmp_path, run_fn=interrupted_run, spec=spec(scenes=("alpha",), strategies=("ours",)))
+    sweep(tmp_path)
+    sweep(tmp_path)
+    log = harness.load_invocations(tmp_path)
+    print(json.dumps(log, indent=1))
+    assert [(one["ran"], one["skipped"], one["completed"]) for one in log] == [(1, 0, False), (7, 1, True),
+                                                                                (0, 8, True)]  # fmt: skip
+    assert all(one["wall_s"] >= 0.0 and one["workers"] == 0 for one in log)
+    assert log[0]["started_unix_s"] <= log[1]["started_unix_s"] <= log[2]["started_unix_s"]
+
+
+def test_a_corrupt_invocation_log_names_its_file_and_line(tmp_path: Path) -> None:
+    sweep(tmp_path)
+    path = tmp_path / harness.INVOCATIONS_FILE
+    path.write_text(path.read_text() + '{"wall_s": "long"}\n')
+    with pytest.raises(HarnessError, match=r"invocations\.jsonl:2: expected an object"):
+        harness.load_invocations(tmp_path)
+    path.write_text("not json\n")
+    with pytest.raises(HarnessError, match=r"invocations\.jsonl:1: not JSON"):
+        harness.load_invocations(tmp_path)
+
+
+def test_sigterm_unwinds_a_cli_sweep_and_restores_the_handler(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    from semexp_bt import bench_cli
+
+    def killed(*args: Any, **kwargs: Any) -> None:
+        os.kill(os.getpid(), signal.SIGTERM)
+        time.sleep(5.0)  # the handler raises before this returns
+        raise AssertionError("SIGTERM did not interrupt the sweep")
+
+    monkeypatch.setattr(harness, "run_sweep", killed)
+    before = signal.getsignal(signal.SIGTERM)
+    args = argparse.Namespace(out=tmp_path, workers=1, ray_address=None, retry_failed=False, quiet=True)
+    with pytest.raises(SystemExit) as stopped:
+        bench_cli._sweep(args, [])
+    assert stopped.value.code == 128 + signal.SIGTERM
+    assert signal.getsignal(signal.SIGTERM) is before
 
 
 def test_ray_missing_is_a_clear_error(tmp_path: Path) -> None:
