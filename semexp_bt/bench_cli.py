@@ -321,9 +321,14 @@ def _compare(args: argparse.Namespace) -> int:
 
 def _all_invocations(out_dir: Path) -> str:
     """The sweep's total wall time, from ``DIR/invocations.jsonl`` (a resumed sweep has several lines)."""
-    from semexp_bt.harness import INVOCATIONS_FILE, load_invocations
+    from semexp_bt.harness import INVOCATIONS_FILE, HarnessError, load_invocations
 
-    invocations = load_invocations(out_dir)
+    try:
+        invocations = load_invocations(out_dir)
+    except HarnessError as exc:
+        # The episodes are what matters: a damaged log must not fail the report written after them.
+        print(f"warning: {exc}", file=sys.stderr)
+        return f"unknown ({exc})"
     total_s = sum(float(one["wall_s"]) for one in invocations)
     ran = sum(int(one.get("ran") or 0) for one in invocations)
     stopped = sum(not one.get("completed", True) for one in invocations)

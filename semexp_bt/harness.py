@@ -10,8 +10,9 @@ start a new output folder after changing the method (``sweep.json`` records the 
 Rows go to ``DIR/episodes.jsonl``, appended by the parent process only, one flushed line per finished
 episode, so an interrupted sweep loses at most the episodes in flight. A rerun skips every key that
 already has a row (``retry_failed`` reruns the ``error`` and ``timeout`` rows; the newest row of a key
-wins when reading). Each call appends its wall time, counts and code revision to ``DIR/invocations.jsonl``,
-also when it is stopped, so a sweep resumed over several invocations still has a total wall time. Rows are flat-ish: the runner's record without the per-decision candidate lists,
+wins when reading). Each call appends its wall time, counts and code revision to
+``DIR/invocations.jsonl``, also when it is stopped, so a sweep resumed over several invocations still
+has a total wall time. Rows are flat-ish: the runner's record without the per-decision candidate lists,
 per-event entries and bulky snapshots; decisions keep ``selected_node_id`` and ``oracle_node_id``
 (GNSA). Trajectories and memory snapshots of a few episodes per (scene, strategy) go to
 ``DIR/trajectories/*.json`` for the report's plots.

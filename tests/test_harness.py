@@ -7,6 +7,7 @@ returns a runner-shaped record computed from the key; one test runs the real ``b
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import math
 import os
@@ -322,6 +323,22 @@ def test_a_corrupt_invocation_log_names_its_file_and_line(tmp_path: Path) -> Non
     path.write_text("not json\n")
     with pytest.raises(HarnessError, match=r"invocations\.jsonl:1: not JSON"):
         harness.load_invocations(tmp_path)
+
+
+def test_the_results_header_sums_the_invocations_and_survives_a_damaged_log(tmp_path: Path) -> None:
+    from semexp_bt import bench_cli
+
+    path = tmp_path / harness.INVOCATIONS_FILE
+    path.write_text(
+        '{"wall_s": 600.0, "ran": 3, "completed": false}\n{"wall_s": 300.0, "ran": 2, "completed": true}\n'
+    )
+    line = bench_cli._all_invocations(tmp_path)
+    print(line)
+    assert line.startswith("15.0 min in 2 invocation(s) (1 stopped) that ran 5 episodes")
+    path.write_text("{torn")
+    with open(os.devnull, "w") as quiet, contextlib.redirect_stderr(quiet):
+        damaged = bench_cli._all_invocations(tmp_path)
+    assert damaged.startswith("unknown (") and "invocations.jsonl:1" in damaged
 
 
 def test_sigterm_unwinds_a_cli_sweep_and_restores_the_handler(
