@@ -453,8 +453,10 @@ def test_bench_paper_smoke_end_to_end(tmp_path: Path) -> None:
     assert "## SR (success rate)" in report and "plots/bars_sr.png" in report
     results = (out / "results.md").read_text()
     assert "## Table V" in results and "(paper 88.9)" in results
+    assert "invocation(s) (0 stopped) that ran 4 episodes" in results
     assert any(p.name.startswith("trajectory_") for p in (out / "plots").iterdir())
     # resumable: the same grid again runs nothing, and the report regenerates from the rows alone
     again = run_sweep(harness.smoke_specs(relevance="lexical"), out, workers=2, progress=None)
     assert (again.ran, again.skipped) == (0, 4)
+    assert [one["ran"] for one in harness.load_invocations(out)] == [4, 0]
     assert main(["bench", "report", str(out), "--no-plots"]) == 0
