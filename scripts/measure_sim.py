@@ -283,6 +283,8 @@ def main(argv: list[str] | None = None) -> int:
         "render": {
             "default": render_figures(scene, CameraConfig(), args.frames, args.repeats),
             "native": render_figures(scene, CameraConfig(downscale=1), args.frames, args.repeats),
+            # A quarter of the native width: what a planner depth at lower resolution would cost.
+            "quarter": render_figures(scene, CameraConfig(downscale=4), args.frames, args.repeats),
         },
     }
     if args.catalogue:
