@@ -187,6 +187,7 @@ def render_figures(
         "observe_ms": robot.observe,
         "observe_depth_ms": robot.observe_depth,
     }
+    tasks["ray_depth_ms"], figures["ray_count"] = sampled_ray_depth(robot)
     for name, task in tasks.items():
 
         def per_frame(task: Callable[[], object] = task) -> float:
@@ -198,6 +199,39 @@ def render_figures(
         figures[name], figures[name.replace("_ms", "_best_ms")] = median_and_best(repeats, per_frame)
     robot.close()
     return figures
+
+
+def sampled_ray_depth(robot: MujocoRobot) -> tuple[Callable[[], object], int]:
+    """One ``mj_multiRay`` over the pixels the planner and the occupancy map actually sample, from the
+    camera's current pose: the cost of a depth source without the rasteriser (a timing, not a validated
+    replacement; the rays also see the robot's own geoms)."""
+    from semexp_bt.local_map import OccupancyMapConfig
+    from semexp_bt.planner import PlannerConfig
+
+    observation = robot.observe_depth()
+    k, camera_to_world = observation.intrinsics, observation.camera_to_world
+
+    def directions(stride: int, offset: int) -> np.ndarray:
+        rows, cols = np.mgrid[offset : k.height_px : stride, offset : k.width_px : stride]
+        in_camera = np.stack(
+            [(cols - k.cx_px) / k.fx_px, (rows - k.cy_px) / k.fy_px, np.ones(rows.shape)], axis=-1
+        ).reshape(-1, 3)
+        return in_camera @ camera_to_world[:3, :3].T
+
+    planner_stride, map_stride = PlannerConfig().pixel_stride, OccupancyMapConfig().pixel_stride
+    rays = np.concatenate([directions(planner_stride, planner_stride // 2), directions(map_stride, 0)])
+    rays /= np.linalg.norm(rays, axis=1, keepdims=True)
+    flat_rays = rays.ravel()
+    origin = camera_to_world[:3, 3].copy()
+    geom_ids = np.zeros(rays.shape[0], dtype=np.int32)
+    distances = np.zeros(rays.shape[0])
+    cutoff_m = max(PlannerConfig().depth_max_m, OccupancyMapConfig().max_range_m)
+
+    def cast() -> None:
+        mujoco.mj_multiRay(robot.model, robot.data, origin, flat_rays, None, 1, -1, geom_ids, distances,
+                           None, rays.shape[0], cutoff_m)  # fmt: skip
+
+    return cast, int(rays.shape[0])
 
 
 def markdown_table(result: dict) -> str:
@@ -222,9 +256,14 @@ def markdown_table(result: dict) -> str:
         "segmentation": "segmentation",
         "`observe()` (RGB + depth + segmentation)": "observe",
         "`observe_depth()`": "observe_depth",
+        "`mj_multiRay` at the planner's and the map's sampled pixels (no rasteriser)": "ray_depth",
     }
     for label, key in rows.items():
-        cells = [f"{r[key + '_ms']:.1f} ({r[key + '_best_ms']:.1f})" for r in result["render"].values()]
+        # Files written before a row existed show "-" in it.
+        cells = [
+            f"{r[key + '_ms']:.1f} ({r[key + '_best_ms']:.1f})" if key + "_ms" in r else "-"
+            for r in result["render"].values()
+        ]
         lines.append(f"| {label} | " + " | ".join(cells) + " |")
     machine = result["machine"]
     lines.append("")
