@@ -218,14 +218,15 @@ def sampled_ray_depth(robot: MujocoRobot) -> tuple[Callable[[], object], int]:
         ).reshape(-1, 3)
         return in_camera @ camera_to_world[:3, :3].T
 
-    planner_stride, map_stride = PlannerConfig().pixel_stride, OccupancyMapConfig().pixel_stride
+    planner, occupancy_map = PlannerConfig(), OccupancyMapConfig()
+    planner_stride, map_stride = planner.pixel_stride, occupancy_map.pixel_stride
     rays = np.concatenate([directions(planner_stride, planner_stride // 2), directions(map_stride, 0)])
     rays /= np.linalg.norm(rays, axis=1, keepdims=True)
     flat_rays = rays.ravel()
     origin = camera_to_world[:3, 3].copy()
     geom_ids = np.zeros(rays.shape[0], dtype=np.int32)
     distances = np.zeros(rays.shape[0])
-    cutoff_m = max(PlannerConfig().depth_max_m, OccupancyMapConfig().max_range_m)
+    cutoff_m = max(planner.depth_max_m, occupancy_map.max_range_m)
 
     def cast() -> None:
         mujoco.mj_multiRay(robot.model, robot.data, origin, flat_rays, None, 1, -1, geom_ids, distances,

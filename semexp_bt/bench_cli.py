@@ -23,7 +23,6 @@ import platform
 import shlex
 import signal
 import sys
-import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -266,9 +265,7 @@ def _paper(args: argparse.Namespace) -> int:
         protocol_text = (f"Table III {protocol.trials_table_iii} trials/scene; Tables I/II/IV {protocol.trials_evidence}/"
                          f"{protocol.trials_decision}/{protocol.trials_ablation} trials per sim scene; references "
                          f"{protocol.trials_reference} trials/scene")  # fmt: skip
-    started = time.monotonic()
     result = _sweep(args, specs)
-    wall_s = time.monotonic() - started
     rows = load_rows(args.out)
     busy_s = sum(float(r.get("harness_wall_s") or 0.0) for r in rows)
     per_core_h = 3600.0 * len(rows) / busy_s if busy_s > 0 else float("nan")
@@ -281,7 +278,7 @@ def _paper(args: argparse.Namespace) -> int:
         "fidelity / relevance": f"{options['fidelity']} / {options['relevance']}",
         "episodes": f"{len(rows)} in {args.out} ({result.ran} run by this invocation, "
         f"{result.errors} errors, {result.timeouts} timeouts)",
-        "wall time of this invocation": f"{wall_s / 60:.1f} min with {args.workers} worker(s)",
+        "wall time of this invocation": f"{result.wall_s / 60:.1f} min with {args.workers} worker(s)",
         "wall time of all invocations": _all_invocations(args.out),
         "episodes per hour per core": f"{per_core_h:.0f} ({options['fidelity']}; from the episodes' own wall times)",
     }

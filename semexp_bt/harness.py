@@ -678,7 +678,8 @@ def run_sweep(
         if t.key.id not in existing or (retry_failed and existing[t.key.id].get("status") != STATUS_OK)
     ]  # fmt: skip
     result = SweepResult(out_dir=out_dir, total=len(tasks), skipped=len(tasks) - len(todo))
-    _write_meta(out_dir, specs, workers=workers, ray_address=ray_address)
+    revision = _git_revision()
+    _write_meta(out_dir, specs, workers=workers, ray_address=ray_address, revision=revision)
     if progress is not None:
         print(f"[sweep] {len(tasks)} episodes, {result.skipped} already done, {len(todo)} to run"
               f" on {'ray ' + ray_address if ray_address else f'{workers} worker(s)'} -> {out_dir}",
@@ -712,12 +713,12 @@ def run_sweep(
         # Also on Ctrl-C or SIGTERM (the CLI turns it into an exception): a stopped invocation's wall
         # time still counts towards the sweep's.
         _log_invocation(out_dir, result, started_unix_s=started_unix_s, workers=workers,
-                        ray_address=ray_address, completed=completed)  # fmt: skip
+                        ray_address=ray_address, completed=completed, revision=revision)  # fmt: skip
     return result
 
 
 def _log_invocation(out_dir: Path, result: SweepResult, *, started_unix_s: float, workers: int,
-                    ray_address: str | None, completed: bool) -> None:  # fmt: skip
+                    ray_address: str | None, completed: bool, revision: str | None) -> None:  # fmt: skip
     record = {
         "started_unix_s": round(started_unix_s, 1),
         "wall_s": round(result.wall_s, 1),
@@ -729,7 +730,7 @@ def _log_invocation(out_dir: Path, result: SweepResult, *, started_unix_s: float
         "workers": workers,
         "ray_address": ray_address,
         "completed": completed,
-        "git_revision": _git_revision(),
+        "git_revision": revision,
     }
     with (out_dir / INVOCATIONS_FILE).open("a", encoding="utf-8") as log:
         log.write(json.dumps(record, separators=(",", ":")) + "\n")
@@ -758,7 +759,9 @@ def load_invocations(out_dir: Path) -> list[dict[str, Any]]:
     return records
 
 
-def _write_meta(out_dir: Path, specs: Sequence[SweepSpec], *, workers: int, ray_address: str | None) -> None:
+def _write_meta(
+    out_dir: Path, specs: Sequence[SweepSpec], *, workers: int, ray_address: str | None, revision: str | None
+) -> None:
     """``sweep.json``: the last specs run here, the machine and the code revision (not part of keys)."""
     meta = {
         "specs": [
@@ -768,7 +771,7 @@ def _write_meta(out_dir: Path, specs: Sequence[SweepSpec], *, workers: int, ray_
         "ray_address": ray_address,
         "cpu_count": os.cpu_count(),
         "python": sys.version.split()[0],
-        "git_revision": _git_revision(),
+        "git_revision": revision,
         "written_unix_s": round(time.time(), 1),
     }
     (out_dir / SWEEP_META_FILE).write_text(json.dumps(meta, indent=1, default=str) + "\n")
