@@ -167,8 +167,14 @@ class LocalPlan(SemExpBehaviour):
         if math.hypot(goal_xy[0] - pose.x_m, goal_xy[1] - pose.y_m) <= self.arrival_radius_m:
             return self._arrive(pose, goal_xy, "arrived")
         with self.timed("planner"):
-            frame = robot.observe_depth()
             local_map = self.read("local_map")
+            # Ask only for the pixels the planner and the map read: a simulated camera then casts rays at
+            # those instead of rasterising the whole frame.
+            planner_pixels = self.services.planner.sampled_pixels
+            grids = None
+            if planner_pixels is not None:
+                grids = [planner_pixels] if local_map is None else [planner_pixels, local_map.sampled_pixels]
+            frame = robot.observe_depth(pixel_grids=grids)
             if local_map is not None:
                 local_map.integrate(frame)
             path = self._global_path(pose, goal_xy, (subgoal.node_id, *subgoal.position_m[:2]))

@@ -13,12 +13,13 @@ until ROS time has moved by ``dt``.
 from __future__ import annotations
 
 import abc
+from collections.abc import Sequence
 from typing import Literal
 
 import numpy as np
 import numpy.typing as npt
 
-from semexp_bt.types import ImuReading, JointState, Observation, Pose2D, SafetyState, Twist
+from semexp_bt.types import ImuReading, JointState, Observation, PixelGrid, Pose2D, SafetyState, Twist
 
 Fidelity = Literal["kinematic", "dynamic"]
 
@@ -38,12 +39,18 @@ class Robot(abc.ABC):
     def observe(self) -> Observation:
         """The latest RGB-D frame with its camera pose, base pose and stamp (rendered on demand in sim)."""
 
-    def observe_depth(self) -> Observation:
+    def observe_depth(self, *, pixel_grids: Sequence[PixelGrid] | None = None) -> Observation:
         """The latest frame for the local planner, which needs depth only (12 Hz).
 
         Backends that can render depth alone override this to skip colour and segmentation; the
         returned Observation may then carry an empty ``rgb``. The default returns :meth:`observe`.
+
+        Args:
+            pixel_grids: the pixels the caller will read. A backend that measures depth per pixel may
+                measure only these and leave the others NaN; None asks for the whole image. Cameras
+                that deliver whole frames (the default here, a real RealSense) ignore it.
         """
+        del pixel_grids  # a whole frame serves any set of pixels
         return self.observe()
 
     @abc.abstractmethod

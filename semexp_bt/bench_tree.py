@@ -46,6 +46,9 @@ FLOOR_MS = 1.0
 class PurePursuitStandIn:
     """A constant-cost planner stand-in: turn toward the goal, drive when roughly facing it."""
 
+    #: It reads no depth at all; None (any pixel) keeps the frame whole, as the benchmark always had it.
+    sampled_pixels = None
+
     def plan(self, *, goal_base_xy: tuple[float, float], **_: Any) -> PlanResult:
         distance = math.hypot(*goal_base_xy)
         bearing = math.atan2(goal_base_xy[1], goal_base_xy[0])

@@ -30,7 +30,7 @@ from scipy import ndimage
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
-from semexp_bt.types import Observation, require_finite
+from semexp_bt.types import Observation, PixelGrid, require_finite
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -98,6 +98,11 @@ class OccupancyMap:
 
     def centre_of(self, cells: npt.NDArray[np.int64]) -> FloatArray:
         return self._lower + (np.asarray(cells, dtype=float) + 0.5) * self.config.resolution_m
+
+    @property
+    def sampled_pixels(self) -> PixelGrid:
+        """The only depth pixels :meth:`integrate` reads: every ``pixel_stride``-th from the corner."""
+        return PixelGrid(stride=self.config.pixel_stride, offset=0)
 
     # ------------------------------------------------------------------ mapping
     def integrate(self, observation: Observation) -> int:

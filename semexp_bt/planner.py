@@ -41,7 +41,15 @@ from typing import Any, Literal, Protocol, runtime_checkable
 import numpy as np
 import numpy.typing as npt
 
-from semexp_bt.types import CameraIntrinsics, FloatArray, InvalidInputError, Pose2D, Twist, require_finite
+from semexp_bt.types import (
+    CameraIntrinsics,
+    FloatArray,
+    InvalidInputError,
+    PixelGrid,
+    Pose2D,
+    Twist,
+    require_finite,
+)
 
 PlanStatus = Literal["tracking", "arrived", "blocked", "goal_behind"]
 """What the planner is doing: ``tracking`` an arc toward the goal (or a detour around an obstacle);
@@ -252,6 +260,11 @@ class LocalPlanner(Protocol):
     Implementations keep their own short-term state (previous command, obstacle memory) and must be
     safe to call at the planning rate; :meth:`reset` forgets that state (new episode, relocalisation).
     """
+
+    @property
+    def sampled_pixels(self) -> PixelGrid | None:
+        """The only depth pixels :meth:`plan` reads, or None when it may read any pixel."""
+        ...
 
     def plan(
         self,
@@ -480,6 +493,11 @@ class DepthArcPlanner:
         self._detour_side = 0.0
 
     @property
+    def sampled_pixels(self) -> PixelGrid:
+        """The only depth pixels :meth:`plan` reads: every ``pixel_stride``-th, half a stride in."""
+        return PixelGrid(stride=self.config.pixel_stride, offset=self.config.pixel_stride // 2)
+
+    @property
     def memory_size(self) -> int:
         """Number of remembered obstacle points."""
         return int(self._memory_xyz.shape[0])
@@ -699,11 +717,16 @@ class DepthArcPlanner:
         )
         # Visibility clearing: a remembered point that projects into the image where the measured depth
         # reaches it (or beyond) is either gone or measured again this frame, so it is dropped. Points
-        # behind an invalid pixel or an occluder stay: the camera has no evidence either way.
+        # behind an invalid pixel or an occluder stay: the camera has no evidence either way. The depth
+        # is read at the nearest pixel of the planner's own sampling grid, so that the planner needs no
+        # pixels beyond it (a ray-cast depth source measures only those).
         cam = (base - transform[:3, 3]) @ transform[:3, :3]
+        grid = self.sampled_pixels
         with np.errstate(divide="ignore", invalid="ignore"):
-            u = np.round(intrinsics.fx_px * cam[:, 0] / cam[:, 2] + intrinsics.cx_px)
-            v = np.round(intrinsics.fy_px * cam[:, 1] / cam[:, 2] + intrinsics.cy_px)
+            u_px = intrinsics.fx_px * cam[:, 0] / cam[:, 2] + intrinsics.cx_px
+            v_px = intrinsics.fy_px * cam[:, 1] / cam[:, 2] + intrinsics.cy_px
+            u = grid.offset + grid.stride * np.round((u_px - grid.offset) / grid.stride)
+            v = grid.offset + grid.stride * np.round((v_px - grid.offset) / grid.stride)
         in_view = (
             (cam[:, 2] >= cfg.depth_min_m)
             & (cam[:, 2] <= cfg.depth_max_m)

@@ -119,14 +119,49 @@ class Twist:
         return cls()
 
 
+@dataclass(frozen=True)
+class PixelGrid:
+    """A regular grid of image pixels a depth consumer reads: rows and columns ``offset, offset + stride, ...``.
+
+    A consumer that samples a depth image on such a grid (the local planner, the occupancy map) says so,
+    and a backend that can measure depth per pixel (ray casting in simulation) may then measure only
+    those pixels and leave the rest NaN ("not measured"). A camera that delivers whole frames ignores it.
+
+    Example:
+        ``PixelGrid(stride=4, offset=2)`` on a 320x240 image is 80x60 pixels: rows and columns 2, 6, 10, ...
+
+    Attributes:
+        stride: step between sampled rows and between sampled columns (>= 1).
+        offset: first sampled row and column (0 <= offset < stride).
+    """
+
+    stride: int
+    offset: int = 0
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.stride, int) or self.stride < 1:
+            raise InvalidInputError(f"PixelGrid.stride must be an integer >= 1, got {self.stride!r}")
+        if not isinstance(self.offset, int) or not 0 <= self.offset < self.stride:
+            raise InvalidInputError(f"PixelGrid.offset must be an integer in [0, stride), got {self.offset!r}")
+
+    def mask(self, *, height_px: int, width_px: int) -> npt.NDArray[np.bool_]:
+        """``(height_px, width_px)`` True on the grid's pixels."""
+        rows = np.zeros(height_px, dtype=bool)
+        cols = np.zeros(width_px, dtype=bool)
+        rows[self.offset :: self.stride] = True
+        cols[self.offset :: self.stride] = True
+        return rows[:, None] & cols[None, :]
+
+
 @dataclass
 class Observation:
     """One RGB-D frame with the robot state it was taken at.
 
     Attributes:
         rgb: ``(H, W, 3)`` uint8 colour image.
-        depth_m: ``(H, W)`` float32 depth along the optical axis in metres; 0 or NaN where invalid
-            (out of range, no return).
+        depth_m: ``(H, W)`` float32 depth along the optical axis in metres; 0 where invalid (out of
+            range, no return), NaN where not measured (a backend asked for :class:`PixelGrid` pixels only
+            may leave the others NaN).
         intrinsics: the depth-aligned colour intrinsics.
         camera_to_world: ``(4, 4)`` homogeneous transform T_w<-c (optical camera frame to ``map``).
         base_pose: the robot base pose in ``map`` (from odometry).
