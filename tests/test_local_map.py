@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -85,3 +87,17 @@ def test_counts_match_a_whole_grid_reference_capped_at_four_per_frame() -> None:
     assert np.array_equal(grid_map.free, reference)
     row, col = grid_map.cell_of(np.array([1.23, 1.23]))
     assert grid_map.free[row, col] == 8.0  # 9 points (and maybe a random one) per frame, capped at 4, twice
+
+
+def test_the_map_reads_only_its_sampled_pixels() -> None:
+    # A depth source that measures only the map's grid and leaves the rest NaN builds the same map.
+    whole_map, sampled_map = OccupancyMap(origin_xy=(0.0, 0.0)), OccupancyMap(origin_xy=(0.0, 0.0))
+    frame = wall_frame()
+    grid = sampled_map.sampled_pixels
+    partial = frame.depth_m.copy()
+    partial[~grid.mask(height_px=partial.shape[0], width_px=partial.shape[1])] = np.nan
+    assert np.isnan(partial).mean() > 0.9
+    used = whole_map.integrate(frame)
+    assert sampled_map.integrate(dataclasses.replace(frame, depth_m=partial)) == used > 0
+    np.testing.assert_array_equal(whole_map.hits, sampled_map.hits)
+    np.testing.assert_array_equal(whole_map.free, sampled_map.free)

@@ -15,8 +15,9 @@ from robots.go1 import load_go1_spec
 from robots.mjcf_scene import build_mjcf, geom_object_ids, object_id_from_geom_name
 from robots.mujoco_backend import BaseMotionLimits, MujocoRobot
 from semexp_bt.scene import SceneObject, SceneSpec
-from semexp_bt.types import BACKGROUND_OBJECT_ID, InvalidInputError, Pose2D, Twist
+from semexp_bt.types import BACKGROUND_OBJECT_ID, InvalidInputError, PixelGrid, Pose2D, Twist
 from sims.catalogue import build_scene
+from sims.episodes import sample_episode
 
 LEVEL_CAMERA = CameraConfig(mount_pitch_down_deg=0.0)
 BOX_ID = 7
@@ -519,3 +520,75 @@ def test_flat_colour_depth_pass_reads_the_lit_pass_depth_to_the_bit(scene_name: 
             np.testing.assert_array_equal(depth_only.depth_m, full.depth_m)
     finally:
         robot.close()
+
+
+#: The pixels LocalPlan asks for by default: the planner's grid and the occupancy map's.
+PLANNER_AND_MAP_GRIDS = (PixelGrid(stride=4, offset=2), PixelGrid(stride=6, offset=0))
+
+
+@pytest.mark.parametrize(("scene_name", "fidelity"), [("office", "kinematic"), ("road", "kinematic"), ("garden_sim", "dynamic")])
+def test_ray_cast_depth_matches_the_rendered_depth_at_the_sampled_pixels(scene_name: str, fidelity: str) -> None:
+    scene = build_scene(scene_name, seed=0)
+    start = sample_episode(scene, seed=0).start
+    robot = MujocoRobot(scene=scene, fidelity=fidelity, start_pose=start, seed=0)  # type: ignore[arg-type]
+    try:
+        sampled = np.zeros((240, 320), dtype=bool)
+        for grid in PLANNER_AND_MAP_GRIDS:
+            sampled |= grid.mask(height_px=240, width_px=320)
+        for turn in (0.0, 2.1, 4.2):
+            robot.teleport(Pose2D(start.x_m, start.y_m, start.yaw_rad + turn))
+            rendered = robot.observe_depth().depth_m
+            rays = robot.observe_depth(pixel_grids=PLANNER_AND_MAP_GRIDS)
+            assert rays.rgb.size == 0 and rays.segmentation is None
+            print(f"{scene_name} yaw +{turn}: {sampled.sum()} rays, {np.count_nonzero(rendered[sampled])} valid")
+            # Not measured: every pixel off the grids; measured: every pixel on them.
+            assert np.all(np.isnan(rays.depth_m[~sampled]))
+            assert np.all(np.isfinite(rays.depth_m[sampled]))
+            on_grid, reference = rays.depth_m[sampled], rendered[sampled]
+            assert np.count_nonzero(reference) > 1000
+            # The bottom rows see the floor, not the trunk the camera sits in.
+            assert np.all((rays.depth_m[-2, sampled[-2]] > 0) == (rendered[-2, sampled[-2]] > 0))
+            assert np.mean((on_grid > 0) == (reference > 0)) > 0.999
+            both = (on_grid > 0) & (reference > 0)
+            assert np.mean(np.abs(on_grid[both] - reference[both]) <= 0.01) > 0.995
+    finally:
+        robot.close()
+
+
+def test_raster_depth_sampling_renders_the_whole_frame_and_unknown_sampling_is_refused(
+    level_robot: MujocoRobot,
+) -> None:
+    scene = make_scene()
+    robot = MujocoRobot(
+        scene=scene, fidelity="kinematic", start_pose=Pose2D(0.0, 0.0, 0.0), seed=0, camera=LEVEL_CAMERA,
+        depth_sampling="raster",
+    )  # fmt: skip
+    try:
+        whole = robot.observe_depth(pixel_grids=PLANNER_AND_MAP_GRIDS).depth_m
+        np.testing.assert_array_equal(whole, level_robot.observe_depth().depth_m)
+    finally:
+        robot.close()
+    with pytest.raises(ValueError, match="depth_sampling"):
+        MujocoRobot(scene=scene, fidelity="kinematic", start_pose=Pose2D(0.0, 0.0, 0.0), seed=0,
+                    depth_sampling="lidar")  # type: ignore[arg-type]  # fmt: skip
+
+
+def test_ray_cast_depth_reads_the_box_face_at_the_centre(level_robot: MujocoRobot) -> None:
+    centre_grid = PixelGrid(stride=40, offset=0)  # rows 0, 40, ..., 200 and columns 0, 40, ..., 280
+    observation = level_robot.observe_depth(pixel_grids=[centre_grid])
+    depth = observation.depth_m
+    # Depth along the optical axis: the flat face reads the same at the centre and 40 px beside it.
+    expected = 3.0 - observation.camera_to_world[0, 3]
+    assert depth[120, 160] == pytest.approx(expected, abs=1e-3)
+    assert depth[120, 200] == pytest.approx(expected, abs=1e-3)
+    assert np.isnan(depth[121, 160])
+
+
+def test_pixel_grid_marks_every_stride_th_row_and_column_from_its_offset() -> None:
+    mask = PixelGrid(stride=4, offset=2).mask(height_px=240, width_px=320)
+    print(np.argwhere(mask)[:3])
+    assert mask.sum() == 60 * 80
+    assert mask[2, 2] and mask[2, 6] and mask[6, 2] and not mask[0, 0] and not mask[2, 3]
+    for bad in ({"stride": 0}, {"stride": 4, "offset": 4}, {"stride": 4, "offset": -1}, {"stride": 2.0}):
+        with pytest.raises(InvalidInputError, match="PixelGrid"):
+            PixelGrid(**bad)  # type: ignore[arg-type]

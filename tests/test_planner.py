@@ -415,6 +415,41 @@ def test_memory_is_cleared_where_the_view_sees_through():
     assert result.twist.angular_z_radps == pytest.approx(0.0, abs=1e-9)
 
 
+def test_the_planner_reads_only_its_sampled_pixels_memory_clearing_included():
+    # A depth source that measures only the planner's grid (ray casting in simulation) and leaves the
+    # rest NaN must give the same commands, points and memory as a whole frame, over a sequence in which
+    # memory is built, carried and cleared by the view seeing through a removed box.
+    box = Box(1.0, 1.3, -0.3, 0.3)
+    post = Box(0.9, 1.1, 0.5, 0.7)
+    back_wall = Box(4.5, 4.7, -5.0, 5.0, height=3.0)
+    scenes = [[box, post, back_wall], [box, post, back_wall], [post, back_wall], [back_wall]]
+    whole, sampled = DepthArcPlanner(), DepthArcPlanner()
+    grid = sampled.sampled_pixels
+    assert grid.stride == sampled.config.pixel_stride and grid.offset == grid.stride // 2
+    off_grid = ~grid.mask(height_px=K320.height_px, width_px=K320.width_px)
+    for step, boxes in enumerate(scenes):
+        pose = (0.1 * step, 0.05 * step, 0.08 * step)
+        depth = render_depth(boxes=boxes, pose=pose, intrinsics=K320, camera_to_base=T_BASE_CAM)
+        partial = depth.copy()
+        partial[off_grid] = np.nan
+        results = []
+        for planner, frame in ((whole, depth), (sampled, partial)):
+            results.append(
+                planner.plan(
+                    depth_m=frame,
+                    intrinsics=K320,
+                    camera_to_base=T_BASE_CAM,
+                    goal_base_xy=(3.0, 0.2),
+                    stamp_s=step * PLAN_PERIOD_S,
+                    base_pose=Pose2D(*pose),
+                )
+            )
+        print(f"step {step}: {results[0].status} {results[0].scores['n_memory_points']:.0f} remembered")
+        assert results[0].twist == results[1].twist and results[0].scores == results[1].scores
+        np.testing.assert_array_equal(results[0].obstacle_points_xy, results[1].obstacle_points_xy)
+    assert whole.memory_size == sampled.memory_size
+
+
 # ------------------------------------------------------------------------------------------------
 # Bad input and configuration
 # ------------------------------------------------------------------------------------------------
