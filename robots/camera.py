@@ -49,6 +49,10 @@ _SLOW_RENDER_FLAGS = (
 )
 
 
+#: Rows, columns, unit optical-frame ray directions and depth per unit range of a set of pixels.
+_PixelRays = tuple[npt.NDArray[np.intp], npt.NDArray[np.intp], FloatArray, FloatArray]
+
+
 @dataclass(frozen=True)
 class CameraConfig:
     """The head camera: image size, field of view, depth range and mount on the trunk.
@@ -240,7 +244,7 @@ class RgbdCamera:
         self._camera.fixedcamid = self._camera_id
         self._rgb = np.empty((height, width, 3), dtype=np.uint8)
         self._depth = np.empty((height, width), dtype=np.float32)
-        self._ray_cache: dict[tuple[PixelGrid, ...], tuple[npt.NDArray[np.intp], npt.NDArray[np.intp], FloatArray, FloatArray]] = {}
+        self._ray_cache: dict[tuple[PixelGrid, ...], _PixelRays] = {}
         self._closed = False
 
     @property
@@ -337,7 +341,7 @@ class RgbdCamera:
     ) -> npt.NDArray[np.float32]:
         """Depth at the grids' pixels only, by casting one ray per pixel (``mj_multiRay``); NaN elsewhere.
 
-        No rasteriser is involved: at the planner's and the map's 6,960 pixels of a 320x240 frame this
+        No rasteriser is involved: at the planner's and the map's 6,420 pixels of a 320x240 frame this
         costs about a quarter of :meth:`render_depth` on llvmpipe (docs/simulation.md). A pixel ``(r, c)``
         is the ray through ``((c - cx) / fx, (r - cy) / fy, 1)``, the model every depth consumer
         back-projects with, so a point measured here back-projects onto the surface it hit. The rays see
@@ -376,16 +380,16 @@ class RgbdCamera:
                 cutoff_m,
             )
         depth_along_axis = ranges * depth_per_range
-        valid = (ranges >= 0.0) & (depth_along_axis >= self._config.min_depth_m) & (
-            depth_along_axis <= self._config.max_depth_m
+        valid = (
+            (ranges >= 0.0)
+            & (depth_along_axis >= self._config.min_depth_m)
+            & (depth_along_axis <= self._config.max_depth_m)
         )
         depth = np.full((self._config.height_px, self._config.width_px), np.nan, dtype=np.float32)
         depth[rows, cols] = np.where(valid, depth_along_axis, 0.0)
         return depth
 
-    def _pixel_rays(
-        self, pixel_grids: tuple[PixelGrid, ...]
-    ) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.intp], FloatArray, FloatArray]:
+    def _pixel_rays(self, pixel_grids: tuple[PixelGrid, ...]) -> _PixelRays:
         """Rows, columns, unit optical-frame directions and depth per unit range of the grids' pixels."""
         height, width = self._config.height_px, self._config.width_px
         sampled = np.zeros((height, width), dtype=bool)

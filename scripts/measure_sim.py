@@ -29,7 +29,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from robots.camera import CameraConfig  # noqa: E402
 from robots.mujoco_backend import MujocoRobot  # noqa: E402
 from semexp_bt.scene import SceneObject, SceneSpec, Shape  # noqa: E402
-from semexp_bt.types import Pose2D, Twist  # noqa: E402
+from semexp_bt.types import PixelGrid, Pose2D, Twist  # noqa: E402
 
 ROOM_HALF_X_M = 4.0
 ROOM_HALF_Y_M = 3.0
@@ -187,7 +187,9 @@ def render_figures(
         "observe_ms": robot.observe,
         "observe_depth_ms": robot.observe_depth,
     }
-    tasks["ray_depth_ms"], figures["ray_count"] = sampled_ray_depth(robot)
+    grids = planner_pixel_grids(robot)
+    tasks["observe_depth_rays_ms"] = lambda: robot.observe_depth(pixel_grids=grids)
+    figures["ray_count"] = int(np.isfinite(robot.observe_depth(pixel_grids=grids).depth_m).sum())
     for name, task in tasks.items():
 
         def per_frame(task: Callable[[], object] = task) -> float:
@@ -201,38 +203,13 @@ def render_figures(
     return figures
 
 
-def sampled_ray_depth(robot: MujocoRobot) -> tuple[Callable[[], object], int]:
-    """One ``mj_multiRay`` over the pixels the planner and the occupancy map actually sample, from the
-    camera's current pose: the cost of a depth source without the rasteriser (a timing, not a validated
-    replacement; the rays also see the robot's own geoms)."""
-    from semexp_bt.local_map import OccupancyMapConfig
-    from semexp_bt.planner import PlannerConfig
+def planner_pixel_grids(robot: MujocoRobot) -> list[PixelGrid]:
+    """The pixel grids LocalPlan asks ``observe_depth`` for: the local planner's and the occupancy map's."""
+    from semexp_bt.local_map import OccupancyMap
+    from semexp_bt.planner import DepthArcPlanner
 
-    observation = robot.observe_depth()
-    k, camera_to_world = observation.intrinsics, observation.camera_to_world
-
-    def directions(stride: int, offset: int) -> np.ndarray:
-        rows, cols = np.mgrid[offset : k.height_px : stride, offset : k.width_px : stride]
-        in_camera = np.stack(
-            [(cols - k.cx_px) / k.fx_px, (rows - k.cy_px) / k.fy_px, np.ones(rows.shape)], axis=-1
-        ).reshape(-1, 3)
-        return in_camera @ camera_to_world[:3, :3].T
-
-    planner, occupancy_map = PlannerConfig(), OccupancyMapConfig()
-    planner_stride, map_stride = planner.pixel_stride, occupancy_map.pixel_stride
-    rays = np.concatenate([directions(planner_stride, planner_stride // 2), directions(map_stride, 0)])
-    rays /= np.linalg.norm(rays, axis=1, keepdims=True)
-    flat_rays = rays.ravel()
-    origin = camera_to_world[:3, 3].copy()
-    geom_ids = np.zeros(rays.shape[0], dtype=np.int32)
-    distances = np.zeros(rays.shape[0])
-    cutoff_m = max(planner.depth_max_m, occupancy_map.max_range_m)
-
-    def cast() -> None:
-        mujoco.mj_multiRay(robot.model, robot.data, origin, flat_rays, None, 1, -1, geom_ids, distances,
-                           None, rays.shape[0], cutoff_m)  # fmt: skip
-
-    return cast, int(rays.shape[0])
+    pose = robot.base_pose()
+    return [DepthArcPlanner().sampled_pixels, OccupancyMap(origin_xy=(pose.x_m, pose.y_m)).sampled_pixels]
 
 
 def markdown_table(result: dict) -> str:
@@ -257,7 +234,7 @@ def markdown_table(result: dict) -> str:
         "segmentation": "segmentation",
         "`observe()` (RGB + depth + segmentation)": "observe",
         "`observe_depth()`": "observe_depth",
-        "`mj_multiRay` at the planner's and the map's sampled pixels (no rasteriser)": "ray_depth",
+        "`observe_depth(pixel_grids=...)`: rays at the planner's and the map's pixels only (LocalPlan's)": "observe_depth_rays",
     }
     for label, key in rows.items():
         # Files written before a row existed show "-" in it.

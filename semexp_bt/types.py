@@ -142,7 +142,9 @@ class PixelGrid:
         if not isinstance(self.stride, int) or self.stride < 1:
             raise InvalidInputError(f"PixelGrid.stride must be an integer >= 1, got {self.stride!r}")
         if not isinstance(self.offset, int) or not 0 <= self.offset < self.stride:
-            raise InvalidInputError(f"PixelGrid.offset must be an integer in [0, stride), got {self.offset!r}")
+            raise InvalidInputError(
+                f"PixelGrid.offset must be an integer in [0, stride), got {self.offset!r}"
+            )
 
     def mask(self, *, height_px: int, width_px: int) -> npt.NDArray[np.bool_]:
         """``(height_px, width_px)`` True on the grid's pixels."""

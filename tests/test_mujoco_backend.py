@@ -526,8 +526,12 @@ def test_flat_colour_depth_pass_reads_the_lit_pass_depth_to_the_bit(scene_name: 
 PLANNER_AND_MAP_GRIDS = (PixelGrid(stride=4, offset=2), PixelGrid(stride=6, offset=0))
 
 
-@pytest.mark.parametrize(("scene_name", "fidelity"), [("office", "kinematic"), ("road", "kinematic"), ("garden_sim", "dynamic")])
-def test_ray_cast_depth_matches_the_rendered_depth_at_the_sampled_pixels(scene_name: str, fidelity: str) -> None:
+@pytest.mark.parametrize(
+    ("scene_name", "fidelity"), [("office", "kinematic"), ("road", "kinematic"), ("garden_sim", "dynamic")]
+)
+def test_ray_cast_depth_matches_the_rendered_depth_at_the_sampled_pixels(
+    scene_name: str, fidelity: str
+) -> None:
     scene = build_scene(scene_name, seed=0)
     start = sample_episode(scene, seed=0).start
     robot = MujocoRobot(scene=scene, fidelity=fidelity, start_pose=start, seed=0)  # type: ignore[arg-type]
@@ -540,7 +544,9 @@ def test_ray_cast_depth_matches_the_rendered_depth_at_the_sampled_pixels(scene_n
             rendered = robot.observe_depth().depth_m
             rays = robot.observe_depth(pixel_grids=PLANNER_AND_MAP_GRIDS)
             assert rays.rgb.size == 0 and rays.segmentation is None
-            print(f"{scene_name} yaw +{turn}: {sampled.sum()} rays, {np.count_nonzero(rendered[sampled])} valid")
+            print(
+                f"{scene_name} yaw +{turn}: {sampled.sum()} rays, {np.count_nonzero(rendered[sampled])} valid"
+            )
             # Not measured: every pixel off the grids; measured: every pixel on them.
             assert np.all(np.isnan(rays.depth_m[~sampled]))
             assert np.all(np.isfinite(rays.depth_m[sampled]))
