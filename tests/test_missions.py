@@ -30,7 +30,9 @@ MISSION = Path(__file__).resolve().parents[1] / "trees" / "object_search.yaml"
 
 #: One solved seed per scene: of the Table III episodes (strategy ``ours``) in ``runs/paper_rays`` that had
 #: run when the list was taken (seeds 0-3; 0-2 in living_room and garden_real), the solved one with the
-#: least simulated time.
+#: least simulated time whose confirmed target lies at the goal object. Living_room seed 2 (50 s) is not:
+#: it ends 0.75 m from the goal, a success, but its target estimate lies nearer another object, so it has
+#: no reached object and SA does not count it; seed 0 is used.
 SOLVED_EPISODES: list[tuple[str, int]] = [
     ("garden_sim", 1),
     ("sidewalk", 2),
@@ -40,7 +42,7 @@ SOLVED_EPISODES: list[tuple[str, int]] = [
     ("office", 0),
     ("showroom", 1),
     ("laboratory", 0),
-    ("living_room", 2),
+    ("living_room", 0),
     ("garden_real", 0),
 ]
 

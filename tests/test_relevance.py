@@ -260,14 +260,23 @@ def test_embedding_relevance_batch_in_unit_interval(embedding) -> None:
 
 
 def test_cosine_mapping_and_factory() -> None:
-    from semexp_bt.embedding_relevance import COSINE_FLOOR, cosine_to_relevance, make_relevance_scorer
+    from semexp_bt.embedding_relevance import (
+        COSINE_FLOOR,
+        EmbeddingRelevance,
+        cosine_to_relevance,
+        make_relevance_scorer,
+        shared_embedding_relevance,
+    )
 
     np.testing.assert_allclose(
         cosine_to_relevance(np.array([-1.0, COSINE_FLOOR, (1 + COSINE_FLOOR) / 2, 1.0])), [0.0, 0.0, 0.5, 1.0]
     )
     lexical = make_relevance_scorer("lexical")
     assert isinstance(lexical, CachedRelevance) and isinstance(lexical.scorer, LexicalRelevance)
+    # Lazy: nothing loads until the first score. The factory hands out the process's shared scorer,
+    # which an earlier test in this process may already have used, so laziness is checked on a new one.
+    assert not EmbeddingRelevance().loaded
     embedded = make_relevance_scorer("embedding")
-    assert not embedded.scorer.loaded  # lazy: nothing loads until the first score
+    assert embedded.scorer is shared_embedding_relevance()
     with pytest.raises(ValueError, match="unknown relevance scorer 'gpt'"):
         make_relevance_scorer("gpt")  # type: ignore[arg-type]
