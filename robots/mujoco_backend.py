@@ -20,7 +20,7 @@ Rendering happens only in :meth:`MujocoRobot.observe` and :meth:`MujocoRobot.obs
 context is created on the first call. ``observe_depth`` given the pixel grids its caller reads (the local
 planner's and the occupancy map's) casts one ray per grid pixel instead of rasterising the frame
 (``depth_sampling="rays"``, the default): on the software rasteriser this is the largest cost of a
-kinematic episode. The rays agree with the rendered depth within 1 cm at all but a few pixels (54 of
+kinematic episode. The rays agree with the rendered depth within 1 cm at all but a few pixels (53 of
 321,000 sampled over the ten scenes: scripts/compare_ray_depth.py, docs/simulation.md).
 ``depth_sampling="raster"`` keeps the rendered frame.
 """
