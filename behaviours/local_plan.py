@@ -38,9 +38,9 @@ import py_trees
 from behaviours.base import SemExpBehaviour
 from behaviours.spec import BuildContext, ParamSpec
 from semexp_bt.geometry import world_to_base
-from semexp_bt.local_map import lookahead_point
-from semexp_bt.planner import arc_points
-from semexp_bt.types import Pose2D, Twist
+from semexp_bt.local_map import OccupancyMap, lookahead_point
+from semexp_bt.planner import LocalPlanner, arc_points
+from semexp_bt.types import PixelGrid, Pose2D, Twist
 
 
 def base_footprint_to_world(pose: Pose2D) -> np.ndarray:
@@ -50,6 +50,17 @@ def base_footprint_to_world(pose: Pose2D) -> np.ndarray:
     out[:2, :2] = [[c, -s], [s, c]]
     out[0, 3], out[1, 3] = pose.x_m, pose.y_m
     return out
+
+
+def depth_pixel_grids(planner: LocalPlanner, local_map: OccupancyMap | None) -> list[PixelGrid] | None:
+    """The depth pixels the planner and the map read, for ``Robot.observe_depth``; None: the whole frame.
+
+    A simulated camera casts rays at only these pixels instead of rasterising the frame.
+    """
+    planner_pixels = planner.sampled_pixels
+    if planner_pixels is None:
+        return None
+    return [planner_pixels] if local_map is None else [planner_pixels, local_map.sampled_pixels]
 
 
 def pure_pursuit(goal_base: tuple[float, float], *, max_speed_mps: float) -> Twist:
@@ -168,13 +179,7 @@ class LocalPlan(SemExpBehaviour):
             return self._arrive(pose, goal_xy, "arrived")
         with self.timed("planner"):
             local_map = self.read("local_map")
-            # Ask only for the pixels the planner and the map read: a simulated camera then casts rays at
-            # those instead of rasterising the whole frame.
-            planner_pixels = self.services.planner.sampled_pixels
-            grids = None
-            if planner_pixels is not None:
-                grids = [planner_pixels] if local_map is None else [planner_pixels, local_map.sampled_pixels]
-            frame = robot.observe_depth(pixel_grids=grids)
+            frame = robot.observe_depth(pixel_grids=depth_pixel_grids(self.services.planner, local_map))
             if local_map is not None:
                 local_map.integrate(frame)
             path = self._global_path(pose, goal_xy, (subgoal.node_id, *subgoal.position_m[:2]))

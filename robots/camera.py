@@ -25,6 +25,7 @@ import os
 import platform
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import mujoco
 import numpy as np
@@ -49,8 +50,17 @@ _SLOW_RENDER_FLAGS = (
 )
 
 
-#: Rows, columns, unit optical-frame ray directions and depth per unit range of a set of pixels.
-_PixelRays = tuple[npt.NDArray[np.intp], npt.NDArray[np.intp], FloatArray, FloatArray]
+class _PixelRays(NamedTuple):
+    """The camera-fixed part of casting rays at a set of pixels, computed once per set."""
+
+    rows: npt.NDArray[np.intp]
+    cols: npt.NDArray[np.intp]
+    directions_optical: FloatArray
+    """Unit ray directions in the optical frame, ``(N, 3)``."""
+    depth_per_range: FloatArray
+    """Optical-axis depth per metre along each ray."""
+    cutoff_m: float
+    """Range beyond which no ray can return a valid depth."""
 
 
 @dataclass(frozen=True)
@@ -357,13 +367,11 @@ class RgbdCamera:
         rays = self._ray_cache.get(key)
         if rays is None:
             rays = self._ray_cache[key] = self._pixel_rays(key)
-        rows, cols, directions_optical, depth_per_range = rays
         to_world = data.cam_xmat[self._camera_id].reshape(3, 3) @ MUJOCO_TO_OPTICAL
-        directions = np.ascontiguousarray(directions_optical @ to_world.T).ravel()
-        count = rows.shape[0]
+        directions = np.ascontiguousarray(rays.directions_optical @ to_world.T).ravel()
+        count = rays.rows.shape[0]
         geom_ids = np.empty(count, dtype=np.int32)
         ranges = np.empty(count, dtype=np.float64)
-        cutoff_m = self._config.max_depth_m / float(depth_per_range.min()) if count else 0.0
         if count:
             mujoco.mj_multiRay(
                 self._model,
@@ -377,20 +385,20 @@ class RgbdCamera:
                 ranges,
                 None,
                 count,
-                cutoff_m,
+                rays.cutoff_m,
             )
-        depth_along_axis = ranges * depth_per_range
+        depth_along_axis = ranges * rays.depth_per_range
         valid = (
             (ranges >= 0.0)
             & (depth_along_axis >= self._config.min_depth_m)
             & (depth_along_axis <= self._config.max_depth_m)
         )
         depth = np.full((self._config.height_px, self._config.width_px), np.nan, dtype=np.float32)
-        depth[rows, cols] = np.where(valid, depth_along_axis, 0.0)
+        depth[rays.rows, rays.cols] = np.where(valid, depth_along_axis, 0.0)
         return depth
 
     def _pixel_rays(self, pixel_grids: tuple[PixelGrid, ...]) -> _PixelRays:
-        """Rows, columns, unit optical-frame directions and depth per unit range of the grids' pixels."""
+        """The rays through the union of the grids' pixels."""
         height, width = self._config.height_px, self._config.width_px
         sampled = np.zeros((height, width), dtype=bool)
         for grid in pixel_grids:
@@ -401,7 +409,10 @@ class RgbdCamera:
             [(cols - k.cx_px) / k.fx_px, (rows - k.cy_px) / k.fy_px, np.ones(rows.shape[0])], axis=1
         )
         norms = np.linalg.norm(directions, axis=1)
-        return rows, cols, directions / norms[:, None], 1.0 / norms
+        depth_per_range = 1.0 / norms
+        # The most oblique ray reaches max_depth_m along the axis at the longest range.
+        cutoff_m = self._config.max_depth_m / float(depth_per_range.min()) if norms.size else 0.0
+        return _PixelRays(rows, cols, directions / norms[:, None], depth_per_range, cutoff_m)
 
     def render_segmentation(self, data: mujoco.MjData) -> npt.NDArray[np.int32]:
         """Segmentation only: scene object id per pixel."""

@@ -22,10 +22,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import numpy as np  # noqa: E402
 
+from behaviours.local_plan import depth_pixel_grids  # noqa: E402
 from robots.mujoco_backend import MujocoRobot  # noqa: E402
-from semexp_bt.local_map import OccupancyMapConfig  # noqa: E402
-from semexp_bt.planner import PlannerConfig  # noqa: E402
-from semexp_bt.types import PixelGrid, Pose2D  # noqa: E402
+from semexp_bt.local_map import OccupancyMap  # noqa: E402
+from semexp_bt.planner import DepthArcPlanner  # noqa: E402
+from semexp_bt.types import Pose2D  # noqa: E402
 from sims.catalogue import build_scene, list_scenes  # noqa: E402
 from sims.episodes import sample_episode  # noqa: E402
 
@@ -37,11 +38,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--tolerance-m", type=float, default=0.01)
     args = parser.parse_args()
-    planner_stride = PlannerConfig().pixel_stride
-    grids = (
-        PixelGrid(stride=planner_stride, offset=planner_stride // 2),
-        PixelGrid(stride=OccupancyMapConfig().pixel_stride, offset=0),
-    )
+    grids = depth_pixel_grids(DepthArcPlanner(), OccupancyMap(origin_xy=(0.0, 0.0)))
     sampled_total = validity_total = far_total = 0
     for fidelity, headings in HEADINGS_RAD.items():
         for name in list_scenes():

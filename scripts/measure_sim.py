@@ -26,10 +26,13 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
+from behaviours.local_plan import depth_pixel_grids  # noqa: E402
 from robots.camera import CameraConfig  # noqa: E402
 from robots.mujoco_backend import MujocoRobot  # noqa: E402
+from semexp_bt.local_map import OccupancyMap  # noqa: E402
+from semexp_bt.planner import DepthArcPlanner  # noqa: E402
 from semexp_bt.scene import SceneObject, SceneSpec, Shape  # noqa: E402
-from semexp_bt.types import PixelGrid, Pose2D, Twist  # noqa: E402
+from semexp_bt.types import Pose2D, Twist  # noqa: E402
 
 ROOM_HALF_X_M = 4.0
 ROOM_HALF_Y_M = 3.0
@@ -187,7 +190,8 @@ def render_figures(
         "observe_ms": robot.observe,
         "observe_depth_ms": robot.observe_depth,
     }
-    grids = planner_pixel_grids(robot)
+    pose = robot.base_pose()
+    grids = depth_pixel_grids(DepthArcPlanner(), OccupancyMap(origin_xy=(pose.x_m, pose.y_m)))
     tasks["observe_depth_rays_ms"] = lambda: robot.observe_depth(pixel_grids=grids)
     figures["ray_count"] = int(np.isfinite(robot.observe_depth(pixel_grids=grids).depth_m).sum())
     for name, task in tasks.items():
@@ -201,15 +205,6 @@ def render_figures(
         figures[name], figures[name.replace("_ms", "_best_ms")] = median_and_best(repeats, per_frame)
     robot.close()
     return figures
-
-
-def planner_pixel_grids(robot: MujocoRobot) -> list[PixelGrid]:
-    """The pixel grids LocalPlan asks ``observe_depth`` for: the local planner's and the occupancy map's."""
-    from semexp_bt.local_map import OccupancyMap
-    from semexp_bt.planner import DepthArcPlanner
-
-    pose = robot.base_pose()
-    return [DepthArcPlanner().sampled_pixels, OccupancyMap(origin_xy=(pose.x_m, pose.y_m)).sampled_pixels]
 
 
 def markdown_table(result: dict) -> str:

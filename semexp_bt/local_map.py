@@ -108,12 +108,16 @@ class OccupancyMap:
     def integrate(self, observation: Observation) -> int:
         """Add one depth frame; returns how many rays were used."""
         cfg = self.config
-        depth = np.asarray(observation.depth_m[:: cfg.pixel_stride, :: cfg.pixel_stride], dtype=float)
+        grid = self.sampled_pixels
+        depth = np.asarray(
+            observation.depth_m[grid.offset :: grid.stride, grid.offset :: grid.stride], dtype=float
+        )
         k = observation.intrinsics
-        rows, cols = np.mgrid[
-            0 : observation.depth_m.shape[0] : cfg.pixel_stride,
-            0 : observation.depth_m.shape[1] : cfg.pixel_stride,
-        ]
+        rows, cols = np.meshgrid(
+            grid.indices(observation.depth_m.shape[0]),
+            grid.indices(observation.depth_m.shape[1]),
+            indexing="ij",
+        )
         valid = np.isfinite(depth) & (depth > 0.0) & (depth <= cfg.max_range_m)
         if not valid.any():
             return 0

@@ -393,10 +393,10 @@ def depth_to_points(
     Returns:
         ``(N, 3)`` points in the base frame; invalid pixels (non-finite, out of range) are skipped.
     """
-    start = pixel_stride // 2
-    sub = np.asarray(depth_m, dtype=float)[start::pixel_stride, start::pixel_stride]
-    rows = np.arange(start, depth_m.shape[0], pixel_stride, dtype=float)
-    cols = np.arange(start, depth_m.shape[1], pixel_stride, dtype=float)
+    grid = PixelGrid.centred(pixel_stride)
+    sub = np.asarray(depth_m, dtype=float)[grid.offset :: grid.stride, grid.offset :: grid.stride]
+    rows = grid.indices(depth_m.shape[0]).astype(float)
+    cols = grid.indices(depth_m.shape[1]).astype(float)
     with np.errstate(invalid="ignore"):
         valid = np.isfinite(sub) & (sub >= depth_min_m) & (sub <= depth_max_m)
     row_idx, col_idx = np.nonzero(valid)
@@ -495,7 +495,7 @@ class DepthArcPlanner:
     @property
     def sampled_pixels(self) -> PixelGrid:
         """The only depth pixels :meth:`plan` reads: every ``pixel_stride``-th, half a stride in."""
-        return PixelGrid(stride=self.config.pixel_stride, offset=self.config.pixel_stride // 2)
+        return PixelGrid.centred(self.config.pixel_stride)
 
     @property
     def memory_size(self) -> int:
@@ -723,10 +723,8 @@ class DepthArcPlanner:
         cam = (base - transform[:3, 3]) @ transform[:3, :3]
         grid = self.sampled_pixels
         with np.errstate(divide="ignore", invalid="ignore"):
-            u_px = intrinsics.fx_px * cam[:, 0] / cam[:, 2] + intrinsics.cx_px
-            v_px = intrinsics.fy_px * cam[:, 1] / cam[:, 2] + intrinsics.cy_px
-            u = grid.offset + grid.stride * np.round((u_px - grid.offset) / grid.stride)
-            v = grid.offset + grid.stride * np.round((v_px - grid.offset) / grid.stride)
+            u = grid.nearest(intrinsics.fx_px * cam[:, 0] / cam[:, 2] + intrinsics.cx_px)
+            v = grid.nearest(intrinsics.fy_px * cam[:, 1] / cam[:, 2] + intrinsics.cy_px)
         in_view = (
             (cam[:, 2] >= cfg.depth_min_m)
             & (cam[:, 2] <= cfg.depth_max_m)

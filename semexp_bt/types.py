@@ -146,12 +146,25 @@ class PixelGrid:
                 f"PixelGrid.offset must be an integer in [0, stride), got {self.offset!r}"
             )
 
+    @classmethod
+    def centred(cls, stride: int) -> PixelGrid:
+        """Every ``stride``-th row and column, starting half a stride in."""
+        return cls(stride=stride, offset=stride // 2)
+
+    def indices(self, length_px: int) -> npt.NDArray[np.int64]:
+        """The grid's rows (or columns) in an image ``length_px`` high (or wide)."""
+        return np.arange(self.offset, length_px, self.stride, dtype=np.int64)
+
+    def nearest(self, coordinate_px: npt.NDArray[np.floating]) -> npt.NDArray[np.floating]:
+        """The grid row (or column) nearest each coordinate, as floats; may lie off the image."""
+        return self.offset + self.stride * np.round((coordinate_px - self.offset) / self.stride)
+
     def mask(self, *, height_px: int, width_px: int) -> npt.NDArray[np.bool_]:
         """``(height_px, width_px)`` True on the grid's pixels."""
         rows = np.zeros(height_px, dtype=bool)
         cols = np.zeros(width_px, dtype=bool)
-        rows[self.offset :: self.stride] = True
-        cols[self.offset :: self.stride] = True
+        rows[self.indices(height_px)] = True
+        cols[self.indices(width_px)] = True
         return rows[:, None] & cols[None, :]
 
 
