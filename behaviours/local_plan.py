@@ -1,12 +1,16 @@
 """LocalPlan: obstacle-aware local planning from the head camera's depth toward the subgoal.
 
-Semantics: every tick it receives (the tree runs it behind a 12 Hz RateLimiter), it renders the latest
-depth frame and adds it to the occupancy map (``local_map``). Every ``replan_period_s`` it recomputes the
-shortest path on that map to the subgoal (or to the reachable point nearest it, for a subgoal on an
-object's surface). It then asks the depth-only local planner for (v, omega) toward the path point
-``lookahead_m`` ahead, or toward the subgoal itself on the last leg, and writes the command to
-``cmd_twist``. The map knows the way round walls seen earlier; the local planner keeps the robot clear
-of what it sees now.
+Semantics: every tick it receives (the tree runs it behind a 12 Hz RateLimiter), it reads the latest
+depth frame; every ``map_period_s`` (4 Hz by default) it also adds that frame to the occupancy map
+(``local_map``). Every ``replan_period_s`` it recomputes the shortest path on that map to the subgoal
+(or to the reachable point nearest it, for a subgoal on an object's surface). It then asks the
+depth-only local planner for (v, omega) toward the path point ``lookahead_m`` ahead, or toward the
+subgoal itself on the last leg, and writes the command to ``cmd_twist``. The map knows the way round
+walls seen earlier; the local planner keeps the robot clear of what it sees now.
+
+Why the map updates more slowly than the planner: the map only feeds the path, recomputed once a
+second, and adding a frame costs about as much as a planning step. Nav2's costmaps are updated the same
+way, below the controller's rate (by default 1 Hz for the global costmap, 5 Hz for the local one).
 
 - SUCCESS: within ``arrival_radius_m`` of the subgoal, at the end of the mapped path, or the planner
   reports arrival on the last leg; in each case after turning in place to face the subgoal, so that
@@ -104,6 +108,12 @@ class LocalPlan(SemExpBehaviour):
         "replan_period_s": ParamSpec(
             "float", doc="recompute the path on the occupancy map this often, s", default=1.0, gt=0.0
         ),
+        "map_period_s": ParamSpec(
+            "float",
+            doc="add a depth frame to the occupancy map at most this often, s (0: every planning cycle)",
+            default=0.25,
+            ge=0.0,
+        ),
         "lookahead_m": ParamSpec(
             "float", doc="the local planner aims at the path point this far ahead, m", default=1.2, gt=0.0
         ),
@@ -130,6 +140,7 @@ class LocalPlan(SemExpBehaviour):
         arrival_radius_m: float = 0.7,
         blocked_timeout_s: float = 6.0,
         replan_period_s: float = 1.0,
+        map_period_s: float = 0.25,
         lookahead_m: float = 1.2,
         no_path_timeout_s: float = 4.0,
         context: BuildContext,
@@ -139,11 +150,13 @@ class LocalPlan(SemExpBehaviour):
         self.arrival_radius_m = arrival_radius_m
         self.blocked_timeout_s = blocked_timeout_s
         self.replan_period_s = replan_period_s
+        self.map_period_s = map_period_s
         self.lookahead_m = lookahead_m
         self.no_path_timeout_s = no_path_timeout_s
         self._blocked_since: float | None = None
         self._path: np.ndarray | None = None
         self._planned_at = -math.inf
+        self._map_due_s = -math.inf
         self._planned_for: tuple[float, float, float] | None = None
         self._no_path_since: float | None = None
 
@@ -151,6 +164,7 @@ class LocalPlan(SemExpBehaviour):
         self._blocked_since = None
         self._path = None
         self._planned_at = -math.inf
+        self._map_due_s = -math.inf
         self._no_path_since = None
 
     def _global_path(
@@ -179,9 +193,16 @@ class LocalPlan(SemExpBehaviour):
             return self._arrive(pose, goal_xy, "arrived")
         with self.timed("planner"):
             local_map = self.read("local_map")
-            frame = robot.observe_depth(pixel_grids=depth_pixel_grids(self.services.planner, local_map))
-            if local_map is not None:
+            now = self.now_s()
+            map_due = local_map is not None and now >= self._map_due_s - 1e-9
+            frame = robot.observe_depth(
+                pixel_grids=depth_pixel_grids(self.services.planner, local_map if map_due else None)
+            )
+            if map_due and local_map is not None:
                 local_map.integrate(frame)
+                # Keep the phase (4 Hz stays 4 Hz on a 12 Hz cycle) unless a whole period was missed.
+                behind = now - self._map_due_s >= self.map_period_s
+                self._map_due_s = now + self.map_period_s if behind else self._map_due_s + self.map_period_s
             path = self._global_path(pose, goal_xy, (subgoal.node_id, *subgoal.position_m[:2]))
             # Aim at a point a little way along the mapped path (the map knows the way round walls seen
             # earlier); with no map, or no path on it yet, aim straight at the subgoal.

@@ -111,11 +111,12 @@ class BaseMotionLimits:
 
     def clamp(self, twist: Twist) -> FloatArray:
         """The twist as ``(vx, vy, wz)``, each clipped to its speed limit."""
+        # Plain min/max: np.clip on three scalars costs more than the rest of a kinematic step.
         return np.array(
             [
-                np.clip(twist.linear_x_mps, -self.max_forward_mps, self.max_forward_mps),
-                np.clip(twist.linear_y_mps, -self.max_lateral_mps, self.max_lateral_mps),
-                np.clip(twist.angular_z_radps, -self.max_yaw_radps, self.max_yaw_radps),
+                min(max(twist.linear_x_mps, -self.max_forward_mps), self.max_forward_mps),
+                min(max(twist.linear_y_mps, -self.max_lateral_mps), self.max_lateral_mps),
+                min(max(twist.angular_z_radps, -self.max_yaw_radps), self.max_yaw_radps),
             ]
         )
 
@@ -345,8 +346,11 @@ class MujocoRobot(Robot):
             self._events.append(ContactEvent(now, object_id, distances[object_id], "collision"))
         self._in_collision, self._in_clearance = colliding, close
 
-    def _check_safety(self, blocked: dict[int, float] | None = None) -> None:
-        distances = self._obstacle_distances()
+    def _check_safety(
+        self, blocked: dict[int, float] | None = None, *, distances: dict[int, float] | None = None
+    ) -> None:
+        """Record contact events; ``distances``: those of the current configuration, when already known."""
+        distances = dict(self._obstacle_distances() if distances is None else distances)
         self._min_clearance_m = min(distances.values(), default=math.inf)
         if blocked:
             # The kinematic base stopped short of these objects: it touched them.
@@ -411,7 +415,8 @@ class MujocoRobot(Robot):
         self._base_velocity = velocity
         self.data.time += dt_s
         self._check_safety(
-            {oid: d for oid, d in refused.items() if d <= 0.0} if refused is not None else None
+            {oid: d for oid, d in refused.items() if d <= 0.0} if refused is not None else None,
+            distances=distances,
         )
 
     def _dynamic_step(self, dt_s: float) -> None:

@@ -6,6 +6,7 @@ every way of running a mission prepares the board the same way.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 import py_trees
@@ -64,9 +65,38 @@ def prepare_board(
     return board
 
 
-def build_tree(
-    *, mission_path: Path, services: MissionServices, registry=None
-) -> py_trees.trees.BehaviourTree:  # type: ignore[no-untyped-def]
+class MissionTree(py_trees.trees.BehaviourTree):
+    """py_trees' ``BehaviourTree`` without one idle walk of the whole tree per tick.
+
+    ``BehaviourTree.tick`` walks every node after the tick for the visitors that want the whole tree
+    (``full=True``), even when none is attached: with the 45 nodes of ``object_search.yaml`` at 50 Hz that
+    walk cost more than the rest of py_trees' per-tick bookkeeping. This tree ticks exactly as the base
+    class does (handlers, visitors, count), and skips only that walk when no full visitor is attached.
+    """
+
+    def tick(
+        self,
+        pre_tick_handler: Callable[[py_trees.trees.BehaviourTree], None] | None = None,
+        post_tick_handler: Callable[[py_trees.trees.BehaviourTree], None] | None = None,
+    ) -> None:
+        if any(visitor.full for visitor in self.visitors):
+            super().tick(pre_tick_handler=pre_tick_handler, post_tick_handler=post_tick_handler)
+            return
+        for handler in ((pre_tick_handler,) if pre_tick_handler else ()) + tuple(self.pre_tick_handlers):
+            handler(self)
+        for visitor in self.visitors:
+            visitor.initialise()
+        for node in self.root.tick():
+            for visitor in self.visitors:
+                node.visit(visitor)
+        for visitor in self.visitors:
+            visitor.finalise()
+        for handler in tuple(self.post_tick_handlers) + ((post_tick_handler,) if post_tick_handler else ()):
+            handler(self)
+        self.count += 1
+
+
+def build_tree(*, mission_path: Path, services: MissionServices, registry=None) -> MissionTree:  # type: ignore[no-untyped-def]
     """Load and build the mission tree with ``services``; the mission's ``config:`` overrides end up in
     ``services.config``."""
     from trees.loader import load_mission
@@ -81,4 +111,4 @@ def build_tree(
     )
     mission = load_mission(mission_path, registry=registry, context=context)
     services.config = mission.config
-    return py_trees.trees.BehaviourTree(root=mission.root)
+    return MissionTree(root=mission.root)

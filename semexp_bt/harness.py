@@ -439,11 +439,19 @@ def _with_key(row: dict[str, Any], task: EpisodeTask) -> dict[str, Any]:
 # --------------------------------------------------------------------------------------------------
 
 
+#: Thread-pool sizes of native libraries, read once when each library loads.
+ONE_THREAD_ENV = {"OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
+
+
 def prepare_worker() -> None:
-    """Per-process settings: headless MuJoCo and one BLAS/torch thread (the cores belong to the pool)."""
+    """Per-process settings: headless MuJoCo and one BLAS/torch thread (the cores belong to the pool).
+
+    The BLAS variables only take effect in a process that has not loaded numpy yet: a spawned pool worker
+    imports numpy before it runs this initializer, so :func:`_new_pool` sets them before spawning.
+    """
     os.environ.setdefault("MUJOCO_GL", "egl")
-    for var in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
-        os.environ.setdefault(var, "1")
+    for var, value in ONE_THREAD_ENV.items():
+        os.environ.setdefault(var, value)
     # Model-loading progress bars would interleave with the sweep's own progress lines.
     for var, value in (
         ("TQDM_DISABLE", "1"),
@@ -787,6 +795,11 @@ def _git_revision() -> str | None:
 
 
 def _new_pool(workers: int) -> ProcessPoolExecutor:
+    # A worker's OpenBLAS would otherwise start one thread per core, and with one worker per core the
+    # threads of the two workers spin against each other (measured: docs/harness.md). Spawned children
+    # inherit this process's environment.
+    for var, value in ONE_THREAD_ENV.items():
+        os.environ.setdefault(var, value)
     # spawn, not fork: MuJoCo's GL contexts and torch's thread pools do not survive a fork.
     return ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"),
                                initializer=prepare_worker)  # fmt: skip

@@ -24,13 +24,13 @@ from behaviours.services import MissionServices
 from blackboard.schema import SCHEMA, SchemaError, checked_write, register_keys
 from robots.null_robot import NullRobot
 from semexp_bt.config import SemExpConfig
-from semexp_bt.executive import build_tree, prepare_board
+from semexp_bt.executive import MissionTree, build_tree, prepare_board
 from semexp_bt.memory import TopologicalMemory
 from semexp_bt.perception import PerceptionResult
 from semexp_bt.planner import DepthArcPlanner
 from semexp_bt.recorder import TickRecorder, replay
 from semexp_bt.relevance import CachedRelevance, LexicalRelevance
-from semexp_bt.types import Detection, Observation, Pose2D, SceneEvidence, SceneProposal
+from semexp_bt.types import Detection, Observation, Pose2D, SceneEvidence, SceneProposal, Subgoal
 from sims.scripted_perception import ScriptedPerception
 
 TREES = Path(__file__).resolve().parents[1] / "trees"
@@ -581,3 +581,85 @@ def test_confirmation_declares_only_when_the_mean_vote_lies_within_the_success_r
     tick_until_done(tree, robot)
     assert tree.root.status == outcome
     assert len(services.perception.requests) == 4  # the first view and three voting further views
+
+
+@pytest.mark.parametrize(("map_period_s", "expected_frames"), [(0.0, 24), (0.25, 8), (1.0, 2)])
+def test_local_plan_adds_depth_to_the_map_at_its_own_period(
+    tmp_path: Path, map_period_s: float, expected_frames: int
+) -> None:
+    """LocalPlan plans at 12 Hz but adds a depth frame to the occupancy map only every ``map_period_s``
+    (the first cycle always does). In 2 simulated seconds: 24 planning cycles, and 24, 8 or 2 map frames."""
+    tree_file = tmp_path / "plan.yaml"
+    tree_file.write_text(
+        "tree:\n  type: RateLimiter\n  name: Plan12Hz\n  params: {rate_hz: 12.0}\n  children:\n"
+        f"    - type: LocalPlan\n      name: LocalPlan\n      params: {{map_period_s: {map_period_s}}}\n"
+    )
+    robot = NullRobot(start_pose=Pose2D(0.0, 0.0, 0.0))
+    services = make_services(robot, seeing([]))
+    board = prepare_board(instructions=["find x"], start_pose=robot.base_pose(), memory=TopologicalMemory())
+    board.subgoal = Subgoal(node_id=1, position_m=(30.0, 0.0, 0.0), label="far away", utility=1.0)
+    tree = build_tree(mission_path=tree_file, services=services)
+    tree.setup()
+    cycles = 0
+    while robot.now_s() < 2.0 - 1e-9:
+        before = py_trees.blackboard.Blackboard.storage.get("/plan")
+        tree.tick()
+        cycles += py_trees.blackboard.Blackboard.storage.get("/plan") is not before
+        robot.advance(TICK_S)
+    print(py_trees.display.unicode_tree(tree.root, show_status=True))
+    assert tree.root.status == py_trees.common.Status.RUNNING
+    assert cycles == 24
+    assert board.local_map.frames == expected_frames
+
+
+def _recorded_ticks(tree_class: type[py_trees.trees.BehaviourTree], *, full: bool) -> list[str]:
+    """What handlers and a visitor see over three ticks of a small tree built as ``tree_class``."""
+    log: list[str] = []
+
+    class Recorder(py_trees.visitors.VisitorBase):
+        def __init__(self) -> None:
+            super().__init__(full=full)
+
+        def initialise(self) -> None:
+            log.append("visitor initialise")
+
+        def run(self, behaviour: py_trees.behaviour.Behaviour) -> None:
+            log.append(f"visit {behaviour.name} {behaviour.status.name}")
+
+        def finalise(self) -> None:
+            log.append("visitor finalise")
+
+    root = py_trees.composites.Selector(
+        name="Root",
+        memory=False,
+        children=[
+            py_trees.behaviours.Failure(name="Fails"),
+            py_trees.behaviours.StatusQueue(
+                name="Queue",
+                queue=[py_trees.common.Status.RUNNING, py_trees.common.Status.SUCCESS],
+                eventually=py_trees.common.Status.FAILURE,
+            ),
+            py_trees.behaviours.Success(name="NeverReached"),
+        ],
+    )
+    tree = tree_class(root=root)
+    tree.visitors.append(Recorder())
+    tree.add_pre_tick_handler(lambda t: log.append(f"pre {t.count}"))
+    tree.add_post_tick_handler(lambda t: log.append(f"post {t.count}"))
+    for _ in range(3):
+        tree.tick(
+            pre_tick_handler=lambda t: log.append("pre once"),
+            post_tick_handler=lambda t: log.append(f"post once {t.root.status.name}"),
+        )
+    log.append(f"count {tree.count}")
+    print(py_trees.display.unicode_tree(tree.root, show_status=True))
+    return log
+
+
+@pytest.mark.parametrize("full", [False, True])
+def test_mission_tree_ticks_exactly_as_py_trees_does(full: bool) -> None:
+    """MissionTree skips py_trees' idle whole-tree walk; handlers, visitors, statuses and count are the same."""
+    expected = _recorded_ticks(py_trees.trees.BehaviourTree, full=full)
+    assert _recorded_ticks(MissionTree, full=full) == expected
+    # Only the whole-tree walk visits a node that has not been ticked yet.
+    assert ("visit NeverReached INVALID" in expected) == full

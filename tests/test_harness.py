@@ -460,3 +460,18 @@ def test_bench_paper_smoke_end_to_end(tmp_path: Path) -> None:
     assert (again.ran, again.skipped) == (0, 4)
     assert [one["ran"] for one in harness.load_invocations(out)] == [4, 0]
     assert main(["bench", "report", str(out), "--no-plots"]) == 0
+
+
+def test_pool_workers_run_blas_on_one_thread() -> None:
+    """Two workers on two cores must not each start a BLAS thread per core: the variables that size
+    OpenBLAS's pool are read when numpy loads, which a spawned worker does before its initializer."""
+    threadpoolctl = pytest.importorskip("threadpoolctl")
+    pool = harness._new_pool(1)
+    try:
+        pools = pool.submit(threadpoolctl.threadpool_info).result(timeout=120)
+    finally:
+        pool.shutdown(wait=True)
+    print(pools)
+    blas = [p for p in pools if p["user_api"] == "blas"]
+    assert blas, "numpy's BLAS not found in the worker"
+    assert all(p["num_threads"] == 1 for p in blas)
