@@ -13,7 +13,7 @@ $(STAMP): pyproject.toml scripts/setup.sh
 setup: $(STAMP)
 
 mission: $(STAMP)
-	MUJOCO_GL=egl $(BIN)/semexp-bt run trees/object_search.yaml --scene road --seed 1 --relevance lexical --json runs/road-1.json
+	MUJOCO_GL=egl $(BIN)/semexp-bt run trees/object_search.yaml --scene road --seed 0 --relevance lexical --json runs/road-0.json
 
 test: $(STAMP)
 	MUJOCO_GL=egl $(BIN)/python -m pytest -q
