@@ -796,8 +796,7 @@ def _git_revision() -> str | None:
 
 def _new_pool(workers: int) -> ProcessPoolExecutor:
     # A worker's OpenBLAS would otherwise start one thread per core, and with one worker per core the
-    # threads of the two workers spin against each other (measured: docs/harness.md). Spawned children
-    # inherit this process's environment.
+    # workers' BLAS threads compete for the same cores. Spawned children inherit this environment.
     for var, value in ONE_THREAD_ENV.items():
         os.environ.setdefault(var, value)
     # spawn, not fork: MuJoCo's GL contexts and torch's thread pools do not survive a fork.
