@@ -40,6 +40,7 @@ import numpy as np
 import py_trees
 
 from behaviours.base import SemExpBehaviour
+from behaviours.rate_limiter import CLOCK_TOLERANCE_S, next_due_s
 from behaviours.spec import BuildContext, ParamSpec
 from semexp_bt.geometry import world_to_base
 from semexp_bt.local_map import OccupancyMap, lookahead_point
@@ -156,7 +157,7 @@ class LocalPlan(SemExpBehaviour):
         self._blocked_since: float | None = None
         self._path: np.ndarray | None = None
         self._planned_at = -math.inf
-        self._map_due_s = -math.inf
+        self._map_due_s: float | None = None
         self._planned_for: tuple[float, float, float] | None = None
         self._no_path_since: float | None = None
 
@@ -164,7 +165,7 @@ class LocalPlan(SemExpBehaviour):
         self._blocked_since = None
         self._path = None
         self._planned_at = -math.inf
-        self._map_due_s = -math.inf
+        self._map_due_s = None
         self._no_path_since = None
 
     def _global_path(
@@ -194,15 +195,12 @@ class LocalPlan(SemExpBehaviour):
         with self.timed("planner"):
             local_map = self.read("local_map")
             now = self.now_s()
-            map_due = local_map is not None and now >= self._map_due_s - 1e-9
-            frame = robot.observe_depth(
-                pixel_grids=depth_pixel_grids(self.services.planner, local_map if map_due else None)
-            )
-            if map_due and local_map is not None:
-                local_map.integrate(frame)
-                # Keep the phase (4 Hz stays 4 Hz on a 12 Hz cycle) unless a whole period was missed.
-                behind = now - self._map_due_s >= self.map_period_s
-                self._map_due_s = now + self.map_period_s if behind else self._map_due_s + self.map_period_s
+            map_due = self._map_due_s is None or now >= self._map_due_s - CLOCK_TOLERANCE_S
+            mapping = local_map if map_due else None
+            frame = robot.observe_depth(pixel_grids=depth_pixel_grids(self.services.planner, mapping))
+            if mapping is not None:
+                mapping.integrate(frame)
+                self._map_due_s = next_due_s(due_s=self._map_due_s, now_s=now, period_s=self.map_period_s)
             path = self._global_path(pose, goal_xy, (subgoal.node_id, *subgoal.position_m[:2]))
             # Aim at a point a little way along the mapped path (the map knows the way round walls seen
             # earlier); with no map, or no path on it yet, aim straight at the subgoal.

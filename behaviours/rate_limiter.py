@@ -19,6 +19,19 @@ from behaviours.spec import BuildContext, ParamSpec
 CLOCK_TOLERANCE_S = 1e-9
 
 
+def next_due_s(*, due_s: float | None, now_s: float, period_s: float) -> float:
+    """When work due at ``due_s`` and done at ``now_s`` is next due: on the grid ``due_s + k * period_s``
+    (so the long-run rate is ``1 / period_s`` even when the caller's tick does not divide it), restarted
+    from ``now_s`` after a stall of a whole period (no burst of catch-up). ``due_s`` None: first time.
+
+    Example: a 4 Hz job served by a 12 Hz cycle quantised to 20 ms ticks, due at 0.25 s and run at
+    0.26 s, is next due at 0.50 s, not 0.51 s.
+    """
+    if due_s is None or now_s - due_s >= period_s:
+        return now_s + period_s
+    return due_s + period_s
+
+
 class RateLimiter(py_trees.decorators.Decorator):
     """Tick the child at most ``rate_hz`` times per robot-clock second; between, repeat its last status.
 
@@ -54,7 +67,7 @@ class RateLimiter(py_trees.decorators.Decorator):
             or self._next_due_s is None
             or now_s >= self._next_due_s - CLOCK_TOLERANCE_S
         ):
-            self._schedule(now_s)
+            self._next_due_s = next_due_s(due_s=self._next_due_s, now_s=now_s, period_s=self.period_s)
             self.child_ticks += 1
             yield from super().tick()
             self._held_status = self.status
@@ -63,12 +76,6 @@ class RateLimiter(py_trees.decorators.Decorator):
         self.status = self._held_status
         self.feedback_message = f"holding {self._held_status.name} until t={self._next_due_s:.3f} s"
         yield self
-
-    def _schedule(self, now_s: float) -> None:
-        if self._next_due_s is None or now_s - self._next_due_s >= self.period_s:
-            self._next_due_s = now_s + self.period_s
-        else:
-            self._next_due_s += self.period_s
 
     def update(self) -> Status:
         return self.decorated.status

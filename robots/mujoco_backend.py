@@ -350,9 +350,11 @@ class MujocoRobot(Robot):
         self, blocked: dict[int, float] | None = None, *, distances: dict[int, float] | None = None
     ) -> None:
         """Record contact events; ``distances``: those of the current configuration, when already known."""
-        distances = dict(self._obstacle_distances() if distances is None else distances)
+        if distances is None:
+            distances = self._obstacle_distances()
         self._min_clearance_m = min(distances.values(), default=math.inf)
         if blocked:
+            distances = dict(distances)  # the caller's stay as measured
             # The kinematic base stopped short of these objects: it touched them.
             for object_id, distance in blocked.items():
                 distances[object_id] = min(distance, distances.get(object_id, math.inf))

@@ -443,6 +443,12 @@ def _with_key(row: dict[str, Any], task: EpisodeTask) -> dict[str, Any]:
 ONE_THREAD_ENV = {"OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
 
 
+def _limit_native_threads() -> None:
+    """One thread per native library in this process and those it spawns, unless the user chose."""
+    for var, value in ONE_THREAD_ENV.items():
+        os.environ.setdefault(var, value)
+
+
 def prepare_worker() -> None:
     """Per-process settings: headless MuJoCo and one BLAS/torch thread (the cores belong to the pool).
 
@@ -450,8 +456,7 @@ def prepare_worker() -> None:
     imports numpy before it runs this initializer, so :func:`_new_pool` sets them before spawning.
     """
     os.environ.setdefault("MUJOCO_GL", "egl")
-    for var, value in ONE_THREAD_ENV.items():
-        os.environ.setdefault(var, value)
+    _limit_native_threads()
     # Model-loading progress bars would interleave with the sweep's own progress lines.
     for var, value in (
         ("TQDM_DISABLE", "1"),
@@ -797,8 +802,7 @@ def _git_revision() -> str | None:
 def _new_pool(workers: int) -> ProcessPoolExecutor:
     # A worker's OpenBLAS would otherwise start one thread per core, and with one worker per core the
     # workers' BLAS threads compete for the same cores. Spawned children inherit this environment.
-    for var, value in ONE_THREAD_ENV.items():
-        os.environ.setdefault(var, value)
+    _limit_native_threads()
     # spawn, not fork: MuJoCo's GL contexts and torch's thread pools do not survive a fork.
     return ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"),
                                initializer=prepare_worker)  # fmt: skip
