@@ -1,7 +1,7 @@
 """Arbitrate: confidence-calibrated evidence arbitration (paper Eq. 1-4) on the last perception.
 
 Semantics: reads ``scene_evidence``, ``detections`` and ``observation``, calls
-``semexp_bt.evidence.arbitrate`` and writes ``arbitration`` (every candidate with its score) and
+``semexp_bt.core.evidence.arbitrate`` and writes ``arbitration`` (every candidate with its score) and
 ``target`` (the winner t* with its fused confidence C_f, or None). Always SUCCESS: an empty or
 all-zero candidate set is a valid outcome (``target`` is None and the reason is in the feedback).
 A label counts as instruction-aligned when its relevance to the instruction reaches
@@ -21,7 +21,7 @@ import py_trees
 
 from behaviours.base import SemExpBehaviour
 from behaviours.spec import BuildContext, ParamSpec
-from semexp_bt.evidence import arbitrate
+from semexp_bt.core.evidence import arbitrate
 
 
 class Arbitrate(SemExpBehaviour):

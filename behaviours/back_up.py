@@ -24,7 +24,7 @@ import py_trees
 
 from behaviours.base import SemExpBehaviour
 from behaviours.spec import BuildContext, ParamSpec
-from semexp_bt.types import Twist
+from semexp_bt.core.types import Twist
 
 #: Candidate escape headings in the body frame (radians from forward), straight ahead excluded.
 ESCAPE_HEADINGS_RAD = tuple(math.radians(a) for a in (180, 135, -135, 90, -90, 45, -45))

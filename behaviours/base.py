@@ -16,7 +16,7 @@ import py_trees
 from behaviours.services import MissionServices, mission_services
 from behaviours.spec import BlackboardKey, BuildContext, ParamSpec
 from blackboard.schema import SCHEMA, checked_write, register_keys
-from semexp_bt.types import Twist
+from semexp_bt.core.types import Twist
 
 #: Relevance at which a label names the instructed object itself (the instructed label or a synonym), not
 #: merely something like it ('shelf' for 'bucket shelf').

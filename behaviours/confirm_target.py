@@ -45,9 +45,9 @@ import py_trees
 
 from behaviours.base import INSTRUCTED_OBJECT_RELEVANCE, SemExpBehaviour
 from behaviours.spec import BuildContext, ParamSpec
-from semexp_bt.evidence import arbitrate, candidate_box
-from semexp_bt.geometry import back_project, object_surface_depth
-from semexp_bt.perception import PerceptionJob
+from semexp_bt.core.evidence import arbitrate, candidate_box
+from semexp_bt.core.geometry import back_project, object_surface_depth
+from semexp_bt.perception.interface import PerceptionJob
 
 
 def _in_view(point_m: tuple[float, float, float], observation) -> bool:

@@ -33,10 +33,10 @@ import py_trees
 
 from behaviours.base import SemExpBehaviour
 from behaviours.spec import BuildContext, ParamSpec
-from semexp_bt.config import DecisionConfig
-from semexp_bt.decision import REASON_EMPTY, DecisionResult, decide
-from semexp_bt.decision_baselines import BASELINE_DECISIONS, select_subgoal
-from semexp_bt.types import NodeState
+from semexp_bt.core.config import DecisionConfig
+from semexp_bt.core.decision import REASON_EMPTY, DecisionResult, decide
+from semexp_bt.core.decision_baselines import BASELINE_DECISIONS, select_subgoal
+from semexp_bt.core.types import NodeState
 
 
 class Decide(SemExpBehaviour):

@@ -21,7 +21,7 @@ import py_trees
 
 from behaviours.base import SemExpBehaviour
 from behaviours.spec import BuildContext, ParamSpec
-from semexp_bt.types import Twist
+from semexp_bt.core.types import Twist
 
 
 class Gait(SemExpBehaviour):

@@ -42,10 +42,10 @@ import py_trees
 from behaviours.base import SemExpBehaviour
 from behaviours.rate_limiter import CLOCK_TOLERANCE_S, next_due_s
 from behaviours.spec import BuildContext, ParamSpec
-from semexp_bt.geometry import world_to_base
-from semexp_bt.local_map import OccupancyMap, lookahead_point
-from semexp_bt.planner import LocalPlanner, arc_points
-from semexp_bt.types import PixelGrid, Pose2D, Twist
+from semexp_bt.core.geometry import world_to_base
+from semexp_bt.core.types import PixelGrid, Pose2D, Twist
+from semexp_bt.nav.local_map import OccupancyMap, lookahead_point
+from semexp_bt.nav.planner import LocalPlanner, arc_points
 
 
 def base_footprint_to_world(pose: Pose2D) -> np.ndarray:

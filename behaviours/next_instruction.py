@@ -14,7 +14,7 @@ from __future__ import annotations
 import py_trees
 
 from behaviours.base import SemExpBehaviour
-from semexp_bt.relevance import instruction_target
+from semexp_bt.core.relevance import instruction_target
 
 
 class NextInstruction(SemExpBehaviour):

@@ -21,8 +21,8 @@ import py_trees
 
 from behaviours.base import SemExpBehaviour
 from behaviours.spec import BuildContext, ParamSpec
-from semexp_bt.perception import PerceptionJob
-from semexp_bt.types import Twist
+from semexp_bt.core.types import Twist
+from semexp_bt.perception.interface import PerceptionJob
 
 
 class Perceive(SemExpBehaviour):

@@ -19,8 +19,8 @@ import py_trees
 
 from behaviours.base import SemExpBehaviour
 from behaviours.spec import BuildContext, ParamSpec
-from semexp_bt.geometry import wrap_angle
-from semexp_bt.types import Twist
+from semexp_bt.core.geometry import wrap_angle
+from semexp_bt.core.types import Twist
 
 
 class RotateInPlace(SemExpBehaviour):

@@ -15,10 +15,10 @@ from typing import Any
 import numpy as np
 
 from robots.interface import Robot
-from semexp_bt.config import SemExpConfig
-from semexp_bt.perception import PerceptionSource
-from semexp_bt.planner import LocalPlanner
-from semexp_bt.relevance import RelevanceScorer
+from semexp_bt.core.config import SemExpConfig
+from semexp_bt.core.relevance import RelevanceScorer
+from semexp_bt.nav.planner import LocalPlanner
+from semexp_bt.perception.interface import PerceptionSource
 
 
 @dataclass
@@ -102,7 +102,7 @@ def mission_services(context: Any) -> MissionServices:
     services = getattr(context, "services", {}).get(SERVICES_KEY)
     if not isinstance(services, MissionServices):
         raise RuntimeError(
-            "this behaviour needs a robot and perception: build the tree through semexp_bt.runner "
+            "this behaviour needs a robot and perception: build the tree through semexp_bt.app.runner "
             f"(BuildContext.services['{SERVICES_KEY}'] is missing)"
         )
     return services

@@ -13,7 +13,7 @@ from __future__ import annotations
 import py_trees
 
 from behaviours.base import SemExpBehaviour
-from semexp_bt.types import Subgoal
+from semexp_bt.core.types import Subgoal
 
 
 class SetSubgoalToStart(SemExpBehaviour):

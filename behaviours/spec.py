@@ -26,7 +26,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Literal
 
-from semexp_bt.config import SemExpConfig
+from semexp_bt.core.config import SemExpConfig
 
 if TYPE_CHECKING:
     from robots.interface import Robot

@@ -32,9 +32,9 @@ import py_trees
 
 from behaviours.base import INSTRUCTED_OBJECT_RELEVANCE, SemExpBehaviour
 from behaviours.spec import BuildContext, ParamSpec
-from semexp_bt.evidence import calibrate, candidate_box
-from semexp_bt.frontier import depth_frontiers
-from semexp_bt.geometry import back_project, object_surface_depth
+from semexp_bt.core.evidence import calibrate, candidate_box
+from semexp_bt.core.geometry import back_project, object_surface_depth
+from semexp_bt.nav.frontier import depth_frontiers
 
 Box = tuple[float, float, float, float]
 
@@ -162,7 +162,7 @@ class UpdateMemory(SemExpBehaviour):
         """(pixel, box, label, confidence, is_place, score) for t*, the other candidates and the landmarks.
 
         ``box`` is the detection box or the VLM's region of an object offer (None for places), from which
-        :func:`~semexp_bt.geometry.object_surface_depth` takes the object's range.
+        :func:`~semexp_bt.core.geometry.object_surface_depth` takes the object's range.
 
         ``is_place`` marks offers that stand for a place to go to rather than an object to reach (an
         unexplored direction, a frontier): their node goes ``standoff_m`` in front of the surface the

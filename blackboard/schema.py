@@ -25,9 +25,9 @@ from typing import Any
 import numpy as np
 import py_trees
 
-from semexp_bt.local_map import OccupancyMap
-from semexp_bt.memory import TopologicalMemory
-from semexp_bt.types import Detection, Observation, Pose2D, SafetyState, SceneEvidence, Subgoal, Twist
+from semexp_bt.core.memory import TopologicalMemory
+from semexp_bt.core.types import Detection, Observation, Pose2D, SafetyState, SceneEvidence, Subgoal, Twist
+from semexp_bt.nav.local_map import OccupancyMap
 
 
 @dataclass(frozen=True)

@@ -31,7 +31,13 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
-from semexp_bt.types import BACKGROUND_OBJECT_ID, CameraIntrinsics, FloatArray, InvalidInputError, PixelGrid
+from semexp_bt.core.types import (
+    BACKGROUND_OBJECT_ID,
+    CameraIntrinsics,
+    FloatArray,
+    InvalidInputError,
+    PixelGrid,
+)
 
 #: MuJoCo cameras look along -z with +y up; the optical frame looks along +z with +y down.
 MUJOCO_TO_OPTICAL = np.diag([1.0, -1.0, -1.0])

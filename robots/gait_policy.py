@@ -27,7 +27,7 @@ import numpy as np
 import numpy.typing as npt
 
 from robots.go1 import LEG_NAMES, NUM_JOINTS, load_go1_spec
-from semexp_bt.types import FloatArray, InvalidInputError, Twist, require_finite
+from semexp_bt.core.types import FloatArray, InvalidInputError, Twist, require_finite
 
 if TYPE_CHECKING:
     import torch

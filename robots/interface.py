@@ -19,7 +19,7 @@ from typing import Literal
 import numpy as np
 import numpy.typing as npt
 
-from semexp_bt.types import ImuReading, JointState, Observation, PixelGrid, Pose2D, SafetyState, Twist
+from semexp_bt.core.types import ImuReading, JointState, Observation, PixelGrid, Pose2D, SafetyState, Twist
 
 Fidelity = Literal["kinematic", "dynamic"]
 

@@ -28,8 +28,8 @@ import numpy.typing as npt
 
 from robots.camera import CameraConfig
 from robots.go1 import CAMERA_NAME, GO1_XML_PATH, IMU_SITE_NAME, TRUNK_BODY_NAME, Go1Spec, load_go1_spec
-from semexp_bt.scene import SceneObject, SceneSpec
-from semexp_bt.types import BACKGROUND_OBJECT_ID
+from semexp_bt.core.scene import SceneObject, SceneSpec
+from semexp_bt.core.types import BACKGROUND_OBJECT_ID
 
 Fidelity = Literal["kinematic", "dynamic"]
 FIDELITIES: tuple[str, ...] = ("kinematic", "dynamic")

@@ -48,8 +48,8 @@ from robots.go1 import (
 )
 from robots.interface import Fidelity, Robot
 from robots.mjcf_scene import FIDELITIES, build_mjcf, geom_object_ids, robot_geom_ids
-from semexp_bt.scene import SceneSpec
-from semexp_bt.types import (
+from semexp_bt.core.scene import SceneSpec
+from semexp_bt.core.types import (
     ContactEvent,
     FloatArray,
     ImuReading,

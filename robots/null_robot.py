@@ -20,7 +20,7 @@ import numpy as np
 import numpy.typing as npt
 
 from robots.interface import Fidelity, Robot
-from semexp_bt.types import (
+from semexp_bt.core.types import (
     CameraIntrinsics,
     ImuReading,
     JointState,

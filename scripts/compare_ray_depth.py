@@ -24,9 +24,9 @@ import numpy as np  # noqa: E402
 
 from behaviours.local_plan import depth_pixel_grids  # noqa: E402
 from robots.mujoco_backend import MujocoRobot  # noqa: E402
-from semexp_bt.local_map import OccupancyMap  # noqa: E402
-from semexp_bt.planner import DepthArcPlanner  # noqa: E402
-from semexp_bt.types import Pose2D  # noqa: E402
+from semexp_bt.core.types import Pose2D  # noqa: E402
+from semexp_bt.nav.local_map import OccupancyMap  # noqa: E402
+from semexp_bt.nav.planner import DepthArcPlanner  # noqa: E402
 from sims.catalogue import build_scene, list_scenes  # noqa: E402
 from sims.episodes import sample_episode  # noqa: E402
 

@@ -29,10 +29,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from behaviours.local_plan import depth_pixel_grids  # noqa: E402
 from robots.camera import CameraConfig  # noqa: E402
 from robots.mujoco_backend import MujocoRobot  # noqa: E402
-from semexp_bt.local_map import OccupancyMap  # noqa: E402
-from semexp_bt.planner import DepthArcPlanner  # noqa: E402
-from semexp_bt.scene import SceneObject, SceneSpec, Shape  # noqa: E402
-from semexp_bt.types import Pose2D, Twist  # noqa: E402
+from semexp_bt.core.scene import SceneObject, SceneSpec, Shape  # noqa: E402
+from semexp_bt.core.types import Pose2D, Twist  # noqa: E402
+from semexp_bt.nav.local_map import OccupancyMap  # noqa: E402
+from semexp_bt.nav.planner import DepthArcPlanner  # noqa: E402
 
 ROOM_HALF_X_M = 4.0
 ROOM_HALF_Y_M = 3.0

@@ -2,7 +2,7 @@
 
 Scenes are listed once, in :data:`SCENE_BUILDERS` (the paper's five simulation scenes first, then the
 simulated analogues of its five real-world scenes). ``build_scene(name, seed=s)`` is deterministic:
-the same name and seed give an equal :class:`~semexp_bt.scene.SceneSpec`.
+the same name and seed give an equal :class:`~semexp_bt.core.scene.SceneSpec`.
 """
 
 from __future__ import annotations
@@ -10,8 +10,8 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from semexp_bt.scene import SceneSpec
-from semexp_bt.types import InvalidInputError
+from semexp_bt.core.scene import SceneSpec
+from semexp_bt.core.types import InvalidInputError
 from sims.scenes import (
     garden_real,
     garden_sim,

@@ -24,8 +24,8 @@ from typing import Any
 
 import numpy as np
 
-from semexp_bt.scene import SceneSpec
-from semexp_bt.types import InvalidInputError, Pose2D
+from semexp_bt.core.scene import SceneSpec
+from semexp_bt.core.types import InvalidInputError, Pose2D
 from sims.geodesic import GeodesicOracle
 from sims.robot_footprint import START_CLEARANCE_M
 from sims.scenes._placement import DEFAULT_MIN_GEODESIC_M, GOAL_SUCCESS_RADIUS_M

@@ -32,7 +32,7 @@ from robots.gait_policy import (
     load_policy,
     ramp_command,
 )
-from semexp_bt.types import FloatArray
+from semexp_bt.core.types import FloatArray
 from sims.gait_env import GaitEnv, GaitEnvConfig, NoiseConfig, RandomizationConfig
 
 SETTLE_S = 1.5

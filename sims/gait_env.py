@@ -33,7 +33,7 @@ from robots.gait_policy import (
     build_observation,
 )
 from robots.go1 import GO1_XML_PATH, LEG_NAMES, NUM_JOINTS, TRUNK_BODY_NAME, load_go1_spec
-from semexp_bt.types import FloatArray, InvalidInputError
+from semexp_bt.core.types import FloatArray, InvalidInputError
 
 BoolArray = npt.NDArray[np.bool_]
 AnyArray = npt.NDArray[Any]

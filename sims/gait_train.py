@@ -31,7 +31,7 @@ from robots.gait_policy import (
     build_torch_actor,
     save_policy,
 )
-from semexp_bt.types import FloatArray, InvalidInputError
+from semexp_bt.core.types import FloatArray, InvalidInputError
 from sims.gait_env import CRITIC_OBS_DIM, GaitEnv, GaitEnvConfig
 
 STATE_FILE = "state.pt"

@@ -31,8 +31,8 @@ import numpy.typing as npt
 from scipy import sparse
 from scipy.sparse import csgraph
 
-from semexp_bt.scene import SceneSpec
-from semexp_bt.types import InvalidInputError, require_finite
+from semexp_bt.core.scene import SceneSpec
+from semexp_bt.core.types import InvalidInputError, require_finite
 from sims.occupancy import (
     DEFAULT_RESOLUTION_M,
     FloatGrid,

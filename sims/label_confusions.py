@@ -24,7 +24,7 @@ from __future__ import annotations
 import re
 from collections.abc import Iterable
 
-from semexp_bt.scene import SceneObject, SceneSpec
+from semexp_bt.core.scene import SceneObject, SceneSpec
 
 #: Pairs of labels that open-vocabulary detectors and VLMs confuse regardless of the scene.
 GENERIC_CLOSE_LABELS: tuple[tuple[str, str], ...] = (

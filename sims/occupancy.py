@@ -1,4 +1,4 @@
-"""Occupancy grid of a :class:`~semexp_bt.scene.SceneSpec`, inflated by the robot's footprint.
+"""Occupancy grid of a :class:`~semexp_bt.core.scene.SceneSpec`, inflated by the robot's footprint.
 
 The grid covers the scene's walkable bounds. Row ``r`` / column ``c`` holds the cell whose centre is
 ``(x_min + (c + 0.5) * res, y_min + (r + 0.5) * res)``, so ``grid[r, c]`` plotted with ``origin="lower"``
@@ -22,8 +22,8 @@ import numpy as np
 import numpy.typing as npt
 from scipy import ndimage
 
-from semexp_bt.scene import SceneObject, SceneSpec
-from semexp_bt.types import InvalidInputError, require_finite
+from semexp_bt.core.scene import SceneObject, SceneSpec
+from semexp_bt.core.types import InvalidInputError, require_finite
 from sims.robot_footprint import ROBOT_CLEARANCE_HEIGHT_M, ROBOT_RADIUS_M
 
 #: Default cell side (m).

@@ -35,8 +35,8 @@ from typing import Any
 
 import numpy as np
 
-from semexp_bt.scene import SceneObject, SceneSpec
-from semexp_bt.types import BACKGROUND_OBJECT_ID, CameraIntrinsics, Observation, Pose2D
+from semexp_bt.core.scene import SceneObject, SceneSpec
+from semexp_bt.core.types import BACKGROUND_OBJECT_ID, CameraIntrinsics, Observation, Pose2D
 from sims.label_confusions import normalise_label
 from sims.perception_emulator import PerceptionNoiseConfig, emulate, load_noise_model
 
@@ -54,7 +54,7 @@ DEFAULT_HIT_RADIUS_FRAC = 0.03
 
 def _target_label(scene: SceneSpec) -> str:
     try:
-        from semexp_bt.relevance import instruction_target
+        from semexp_bt.core.relevance import instruction_target
     except ImportError:  # relevance.py is written in parallel; the goal's label is the same phrase
         return scene.goal.label
     return instruction_target(scene.instruction)

@@ -25,7 +25,7 @@ Noise model (every parameter in ``sims/perception_noise.yaml``, documented in ``
 * latency: uniform jitter around a configured mean per model (VLM 2.5 s, detector 1.2 s by default).
 
 Two entry points: the pure function :func:`emulate` (one frame in, evidence + latencies out) and
-:class:`PerceptionEmulator`, a ``semexp_bt.perception.PerceptionSource`` whose jobs release their result
+:class:`PerceptionEmulator`, a ``semexp_bt.perception.interface.PerceptionSource`` whose jobs release their result
 once the simulated latency has passed on the backend clock. Both are deterministic for a given numpy
 ``Generator`` state.
 """
@@ -41,10 +41,9 @@ import numpy as np
 import numpy.typing as npt
 import yaml
 
-from semexp_bt.config import ConfigError, config_from_dict
-from semexp_bt.perception import PerceptionResult, ReadyJob
-from semexp_bt.scene import SceneObject, SceneSpec
-from semexp_bt.types import (
+from semexp_bt.core.config import ConfigError, config_from_dict
+from semexp_bt.core.scene import SceneObject, SceneSpec
+from semexp_bt.core.types import (
     BACKGROUND_OBJECT_ID,
     Detection,
     InvalidInputError,
@@ -54,6 +53,7 @@ from semexp_bt.types import (
     Twist,
     require_finite,
 )
+from semexp_bt.perception.interface import PerceptionResult, ReadyJob
 from sims.label_confusions import (
     close_label_pairs,
     close_labels_of,
@@ -76,7 +76,7 @@ def _range(lo: float, hi: float, *, lo_open: bool = False, hi_open: bool = False
 
 
 # --------------------------------------------------------------------------------------------------
-# Configuration (loaded from YAML with semexp_bt.config.config_from_dict: unknown keys, wrong types and
+# Configuration (loaded from YAML with semexp_bt.core.config.config_from_dict: unknown keys, wrong types and
 # out-of-range values raise ConfigError naming the file and the dotted key)
 # --------------------------------------------------------------------------------------------------
 
@@ -841,7 +841,7 @@ def _default_noise() -> PerceptionNoiseConfig:
 
 
 class PerceptionEmulator:
-    """A ``semexp_bt.perception.PerceptionSource`` backed by :func:`emulate`.
+    """A ``semexp_bt.perception.interface.PerceptionSource`` backed by :func:`emulate`.
 
     ``submit`` computes the evidence at once (the frame is what the camera saw at ``now_s``) but the job
     releases it only when the slower enabled model's simulated latency has passed on the backend clock,

@@ -6,7 +6,7 @@ time, and records what it was asked. An entry is a :class:`PerceptionResult` or 
 nothing but its script, so it isolates the executive from the perception emulator.
 
 Example:
-    >>> from semexp_bt.types import SceneEvidence, SceneProposal
+    >>> from semexp_bt.core.types import SceneEvidence, SceneProposal
     >>> ahead = PerceptionResult(scene=SceneEvidence((SceneProposal((160.0, 200.0), "open corridor", "direction"),), 0.8),
     ...                          detections=(), observation_stamp_s=0.0)
     >>> source = ScriptedPerception([ahead], latency_s=2.5)
@@ -17,8 +17,8 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable, Sequence
 
-from semexp_bt.perception import PerceptionResult, ReadyJob
-from semexp_bt.types import Observation, Twist, require_finite
+from semexp_bt.core.types import Observation, Twist, require_finite
+from semexp_bt.perception.interface import PerceptionResult, ReadyJob
 
 ScriptEntry = PerceptionResult | Callable[[Observation], PerceptionResult]
 

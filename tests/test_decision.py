@@ -11,8 +11,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from semexp_bt.config import DecisionConfig
-from semexp_bt.decision import (
+from semexp_bt.core.config import DecisionConfig
+from semexp_bt.core.decision import (
     REASON_ALL_ZERO,
     REASON_EMPTY,
     REASON_OK,
@@ -22,8 +22,8 @@ from semexp_bt.decision import (
     utilities,
     utility,
 )
-from semexp_bt.relevance import CachedRelevance, LexicalRelevance
-from semexp_bt.types import InvalidInputError, NodeState
+from semexp_bt.core.relevance import CachedRelevance, LexicalRelevance
+from semexp_bt.core.types import InvalidInputError, NodeState
 
 INSTRUCTION = "find the fire extinguisher"
 unit = st.floats(min_value=0.0, max_value=1.0, allow_nan=False)

@@ -10,16 +10,16 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from semexp_bt.config import DecisionConfig
-from semexp_bt.decision import REASON_EMPTY, REASON_OK, REASON_TIE
-from semexp_bt.decision_baselines import (
+from semexp_bt.app.strategies import resolve_strategy
+from semexp_bt.core.config import DecisionConfig
+from semexp_bt.core.decision import REASON_EMPTY, REASON_OK, REASON_TIE
+from semexp_bt.core.decision_baselines import (
     BASELINE_DECISIONS,
     REASON_UNREACHABLE,
     BaselineParams,
     select_subgoal,
 )
-from semexp_bt.strategies import resolve_strategy
-from semexp_bt.types import InvalidInputError, NodeState
+from semexp_bt.core.types import InvalidInputError, NodeState
 
 INSTRUCTION = "find the fire extinguisher"
 #: No relevance floor, so the hand-worked relevance means are the table's values.

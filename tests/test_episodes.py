@@ -8,8 +8,8 @@ from functools import cache
 
 import pytest
 
-from semexp_bt.scene import SceneObject, SceneSpec
-from semexp_bt.types import InvalidInputError
+from semexp_bt.core.scene import SceneObject, SceneSpec
+from semexp_bt.core.types import InvalidInputError
 from sims.catalogue import build_scene, list_scenes
 from sims.episodes import GOAL_SUCCESS_RADIUS_M, EpisodeSamplingError, sample_episode, scene_min_geodesic_m
 from sims.geodesic import GeodesicOracle

@@ -1,4 +1,4 @@
-"""Tests for semexp_bt.evidence: calibration (Eq. 1), scoring (Eq. 2), selection (Eq. 3), location fusion
+"""Tests for semexp_bt.core.evidence: calibration (Eq. 1), scoring (Eq. 2), selection (Eq. 3), location fusion
 (Eq. 4), association, depth feasibility kappa, and input validation."""
 
 from __future__ import annotations
@@ -11,8 +11,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from semexp_bt.config import ArbitrationConfig
-from semexp_bt.evidence import (
+from semexp_bt.core.config import ArbitrationConfig
+from semexp_bt.core.evidence import (
     TIE_RELATIVE_TOLERANCE,
     ArbitrationResult,
     arbitrate,
@@ -22,7 +22,7 @@ from semexp_bt.evidence import (
     depth_feasibility,
     scene_region,
 )
-from semexp_bt.types import Detection, InvalidInputError, SceneEvidence, SceneProposal
+from semexp_bt.core.types import Detection, InvalidInputError, SceneEvidence, SceneProposal
 
 WIDTH, HEIGHT = 640, 480
 TARGET = "mug"

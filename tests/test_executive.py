@@ -23,14 +23,15 @@ import pytest
 from behaviours.services import MissionServices
 from blackboard.schema import SCHEMA, SchemaError, checked_write, register_keys
 from robots.null_robot import NullRobot
-from semexp_bt.config import SemExpConfig
-from semexp_bt.executive import MissionTree, build_tree, prepare_board
-from semexp_bt.memory import TopologicalMemory
-from semexp_bt.perception import PerceptionResult
-from semexp_bt.planner import DepthArcPlanner
-from semexp_bt.recorder import TickRecorder, replay
-from semexp_bt.relevance import CachedRelevance, LexicalRelevance
-from semexp_bt.types import Detection, Observation, Pose2D, SceneEvidence, SceneProposal, Subgoal
+from semexp_bt.app.executive import MissionTree, build_tree, prepare_board
+from semexp_bt.app.recorder import TickRecorder, replay
+from semexp_bt.app.runner import MissionRun
+from semexp_bt.core.config import SemExpConfig
+from semexp_bt.core.memory import TopologicalMemory
+from semexp_bt.core.relevance import CachedRelevance, LexicalRelevance
+from semexp_bt.core.types import Detection, Observation, Pose2D, SceneEvidence, SceneProposal, Subgoal
+from semexp_bt.nav.planner import DepthArcPlanner
+from semexp_bt.perception.interface import PerceptionResult
 from sims.scripted_perception import ScriptedPerception
 
 TREES = Path(__file__).resolve().parents[1] / "trees"
@@ -117,19 +118,15 @@ def run(
         memory=TopologicalMemory(services.config.memory),
         activity_stream=recorder_kwargs is not None,
     )
-    tree = build_tree(mission_path=TREES / mission, services=services)
-    recorder = TickRecorder(
-        tree=tree,
-        memory_getter=lambda: board.memory,
-        subgoal_getter=lambda: board.subgoal,
-        **(recorder_kwargs or {"path": None, "display": False}),
-    )
+    tree = build_tree(TREES / mission, services=services)
+    recorder = TickRecorder(**(recorder_kwargs or {"path": None, "display": False}))
+    recorder.start(MissionRun(tree=tree, board=board, services=services))
     tree.setup()
     ticks = 0
     while robot.now_s() < max_sim_s:
         tree.tick()
         ticks += 1
-        recorder.after_tick(ticks, robot.now_s())
+        recorder.record_tick(ticks, robot.now_s())
         if tree.root.status != py_trees.common.Status.RUNNING:
             break
         robot.advance(TICK_S)
@@ -305,8 +302,9 @@ def test_no_display_and_no_record_add_no_visitor() -> None:
         start_pose=robot.base_pose(),
         memory=TopologicalMemory(services.config.memory),
     )
-    tree = build_tree(mission_path=TREES / "object_search.yaml", services=services)
-    TickRecorder(tree=tree, path=None, display=False)
+    tree = build_tree(TREES / "object_search.yaml", services=services)
+    board = py_trees.blackboard.Client(name="test")
+    TickRecorder(path=None, display=False).start(MissionRun(tree=tree, board=board, services=services))
     assert tree.visitors == []
     assert py_trees.blackboard.Blackboard.activity_stream is None
 
@@ -337,7 +335,7 @@ def test_remapped_memory_key_is_what_the_behaviours_use(tmp_path: Path) -> None:
     services = make_services(robot, seeing([]))
     board = prepare_board(instructions=["find x"], start_pose=robot.base_pose(), memory=TopologicalMemory())
     board.memory.add_master(position_m=(1.0, 2.0, 0.0), stamp_s=0.0)
-    tree = build_tree(mission_path=tree_file, services=services)
+    tree = build_tree(tree_file, services=services)
     tree.tick()
     print(py_trees.display.unicode_tree(tree.root, show_status=True))
     assert tree.root.status == py_trees.common.Status.SUCCESS
@@ -368,7 +366,7 @@ def confirm_tree_facing_a_post(  # type: ignore[no-untyped-def]
         instructions=[instruction], start_pose=robot.base_pose(), memory=TopologicalMemory()
     )
     board.memory.add_master(position_m=(0.0, 0.0, 0.0), stamp_s=0.0)
-    tree = build_tree(mission_path=tree_file, services=services)
+    tree = build_tree(tree_file, services=services)
     tree.setup()
     return tree, robot, services, board
 
@@ -424,7 +422,7 @@ def test_decide_falls_back_to_unreached_nodes_when_every_potential_decayed(tmp_p
     memory.mark_visited(node_id=reached.node_id)
     for node_id in (reached.node_id, glimpsed.node_id):
         memory.scale_potential(node_id=node_id, factor=0.1)
-    tree = build_tree(mission_path=tree_file, services=services)
+    tree = build_tree(tree_file, services=services)
     tree.tick()
     print(py_trees.display.unicode_tree(tree.root, show_status=True))
     assert tree.root.status == py_trees.common.Status.SUCCESS
@@ -440,7 +438,7 @@ def test_decide_falls_back_to_unreached_nodes_when_every_potential_decayed(tmp_p
 
     strict = tmp_path / "strict.yaml"
     strict.write_text("tree:\n  type: Decide\n  name: Decide\n  params: {relax_when_exhausted: false}\n")
-    tree = build_tree(mission_path=strict, services=services)
+    tree = build_tree(strict, services=services)
     tree.tick()
     assert tree.root.status == py_trees.common.Status.FAILURE
     assert services.decision_log[-1]["reason"] == "empty candidate set"
@@ -459,7 +457,7 @@ def test_oracle_decide_uses_the_privileged_goal_and_refuses_to_run_without_it(tm
     memory.add_master(position_m=(0.0, 0.0, 0.0), stamp_s=0.0)
     east = memory.update(position_m=(2.0, 0.0, 0.3), label="unexplored area", confidence=0.6, stamp_s=0.0)
     west = memory.update(position_m=(-2.0, 0.0, 0.3), label="unexplored area", confidence=0.6, stamp_s=0.0)
-    tree = build_tree(mission_path=tree_file, services=services)
+    tree = build_tree(tree_file, services=services)
 
     services.privileged_goal_xy = (-6.0, 0.0)
     tree.tick()
@@ -512,7 +510,7 @@ def test_clear_sight_of_the_target_revives_its_demoted_node_at_most_twice(
         instructions=["find the fire extinguisher"], start_pose=robot.base_pose(), memory=TopologicalMemory()
     )
     board.memory.add_master(position_m=(0.0, 0.0, 0.0), stamp_s=0.0)
-    tree = build_tree(mission_path=tree_file, services=services)
+    tree = build_tree(tree_file, services=services)
     tree.setup()
 
     def look() -> None:
@@ -598,7 +596,7 @@ def test_local_plan_adds_depth_to_the_map_at_its_own_period(
     services = make_services(robot, seeing([]))
     board = prepare_board(instructions=["find x"], start_pose=robot.base_pose(), memory=TopologicalMemory())
     board.subgoal = Subgoal(node_id=1, position_m=(30.0, 0.0, 0.0), label="far away", utility=1.0)
-    tree = build_tree(mission_path=tree_file, services=services)
+    tree = build_tree(tree_file, services=services)
     tree.setup()
     cycles = 0
     while robot.now_s() < 2.0 - 1e-9:

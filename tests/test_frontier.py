@@ -1,4 +1,4 @@
-"""Geometric frontiers from depth (semexp_bt.frontier) and the planner's standoff arrival."""
+"""Geometric frontiers from depth (semexp_bt.nav.frontier) and the planner's standoff arrival."""
 
 from __future__ import annotations
 
@@ -7,9 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from semexp_bt.frontier import depth_frontiers, horizon_row
-from semexp_bt.planner import DepthArcPlanner
-from semexp_bt.types import CameraIntrinsics, InvalidInputError
+from semexp_bt.core.types import CameraIntrinsics, InvalidInputError
+from semexp_bt.nav.frontier import depth_frontiers, horizon_row
+from semexp_bt.nav.planner import DepthArcPlanner
 
 K = CameraIntrinsics.from_fov(width_px=320, height_px=240, vertical_fov_deg=42.5)
 CAMERA_HEIGHT_M = 0.3

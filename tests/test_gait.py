@@ -32,8 +32,8 @@ from robots.gait_policy import (
 )
 from robots.go1 import load_go1_spec
 from robots.mujoco_backend import MujocoRobot
-from semexp_bt.scene import SceneSpec
-from semexp_bt.types import InvalidInputError, Pose2D, Twist
+from semexp_bt.core.scene import SceneSpec
+from semexp_bt.core.types import InvalidInputError, Pose2D, Twist
 from sims.gait_env import GaitEnv, GaitEnvConfig, NoiseConfig, RandomizationConfig, reward_terms
 from sims.gait_train import RunningNormalizer, compute_gae
 

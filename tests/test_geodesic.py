@@ -9,8 +9,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from semexp_bt.scene import SceneObject, SceneSpec
-from semexp_bt.types import InvalidInputError
+from semexp_bt.core.scene import SceneObject, SceneSpec
+from semexp_bt.core.types import InvalidInputError
 from sims.catalogue import build_scene
 from sims.geodesic import GeodesicOracle
 from sims.occupancy import OccupancyGrid

@@ -1,4 +1,4 @@
-"""Tests for semexp_bt.geometry: back-projection (paper Eq. 5), projection, boxes, depth statistics, poses."""
+"""Tests for semexp_bt.core.geometry: back-projection (paper Eq. 5), projection, boxes, depth statistics, poses."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from semexp_bt.geometry import (
+from semexp_bt.core.geometry import (
     back_project,
     back_project_pixels,
     base_to_world,
@@ -27,7 +27,7 @@ from semexp_bt.geometry import (
     world_to_base,
     wrap_angle,
 )
-from semexp_bt.types import CameraIntrinsics, InvalidInputError, Pose2D
+from semexp_bt.core.types import CameraIntrinsics, InvalidInputError, Pose2D
 
 WIDTH, HEIGHT = 640, 480
 K = CameraIntrinsics(fx_px=500.0, fy_px=500.0, cx_px=319.5, cy_px=239.5, width_px=WIDTH, height_px=HEIGHT)

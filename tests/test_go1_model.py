@@ -10,8 +10,8 @@ import pytest
 
 from robots.go1 import GO1_XML_PATH, LEG_NAMES, NUM_JOINTS, load_go1_spec
 from robots.mjcf_scene import build_mjcf
-from semexp_bt.scene import SceneSpec
-from semexp_bt.types import JointState
+from semexp_bt.core.scene import SceneSpec
+from semexp_bt.core.types import JointState
 
 SPEC = load_go1_spec()
 EMPTY_SCENE = SceneSpec(

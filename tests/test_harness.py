@@ -20,8 +20,8 @@ from typing import Any
 
 import pytest
 
-from semexp_bt import harness
-from semexp_bt.harness import (
+from semexp_bt.bench import harness
+from semexp_bt.bench.harness import (
     EPISODES_FILE,
     STATUS_ERROR,
     STATUS_OK,
@@ -36,7 +36,7 @@ from semexp_bt.harness import (
     run_sweep,
     to_episode_record,
 )
-from semexp_bt.metrics import success
+from semexp_bt.core.metrics import success
 
 #: Calls of the fake run function in this process (workers=0 runs inline).
 CALLS: list[str] = []
@@ -326,7 +326,7 @@ def test_a_corrupt_invocation_log_names_its_file_and_line(tmp_path: Path) -> Non
 
 
 def test_the_results_header_sums_the_invocations_and_survives_a_damaged_log(tmp_path: Path) -> None:
-    from semexp_bt import bench_cli
+    from semexp_bt.cli import bench as bench_cli
 
     path = tmp_path / harness.INVOCATIONS_FILE
     path.write_text(
@@ -344,7 +344,7 @@ def test_the_results_header_sums_the_invocations_and_survives_a_damaged_log(tmp_
 def test_sigterm_unwinds_a_cli_sweep_and_restores_the_handler(
     monkeypatch: pytest.MonkeyPatch, tmp_path: Path
 ) -> None:
-    from semexp_bt import bench_cli
+    from semexp_bt.cli import bench as bench_cli
 
     def killed(*args: Any, **kwargs: Any) -> None:
         os.kill(os.getpid(), signal.SIGTERM)

@@ -23,7 +23,7 @@ from typing import Any
 
 import pytest
 
-from semexp_bt.harness import STATUS_ERROR, STATUS_OK, load_rows, run_sweep
+from semexp_bt.bench.harness import STATUS_ERROR, STATUS_OK, load_rows, run_sweep
 
 pytestmark = [
     pytest.mark.ray,

@@ -7,8 +7,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from semexp_bt.local_map import OccupancyMap
-from semexp_bt.types import CameraIntrinsics, Observation, Pose2D
+from semexp_bt.core.types import CameraIntrinsics, Observation, Pose2D
+from semexp_bt.nav.local_map import OccupancyMap
 
 CAMERA_HEIGHT_M = 0.3
 WALL_X_M = 2.0

@@ -11,15 +11,15 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from semexp_bt.config import MemoryConfig
-from semexp_bt.memory import (
+from semexp_bt.core.config import MemoryConfig
+from semexp_bt.core.memory import (
     SNAPSHOT_FORMAT,
     SNAPSHOT_VERSION,
     MemoryUpdate,
     TopologicalMemory,
     UnknownNodeError,
 )
-from semexp_bt.types import InvalidInputError
+from semexp_bt.core.types import InvalidInputError
 
 # Round numbers so the hand-worked examples below are easy to follow.
 CONFIG = MemoryConfig(

@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from semexp_bt.metrics import (
+from semexp_bt.core.metrics import (
     DEFAULT_CLEARANCE_M,
     DEFAULT_SUCCESS_RADIUS_M,
     DecisionStep,
@@ -28,7 +28,7 @@ from semexp_bt.metrics import (
     summarize,
     wilson_interval,
 )
-from semexp_bt.types import InvalidInputError
+from semexp_bt.core.types import InvalidInputError
 
 
 def record(**overrides) -> EpisodeRecord:

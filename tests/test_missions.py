@@ -24,7 +24,7 @@ from pathlib import Path
 import pytest
 
 import sims.catalogue
-from semexp_bt.runner import RunOptions, run_mission
+from semexp_bt.app.episode import EpisodeOptions, run_episode
 
 MISSION = Path(__file__).resolve().parents[1] / "trees" / "object_search.yaml"
 
@@ -57,7 +57,7 @@ def _summary(record: dict) -> str:
 
 @pytest.mark.parametrize(("scene", "seed"), SOLVED_EPISODES)
 def test_paper_mission_finds_the_goal(scene: str, seed: int) -> None:
-    record = run_mission(RunOptions(mission_path=MISSION, scene=scene, seed=seed, relevance="embedding"))
+    record = run_episode(EpisodeOptions(mission_path=MISSION, scene=scene, seed=seed, relevance="embedding"))
     print(_summary(record))
     assert record["outcome"] == "success", _summary(record)
     assert record["success"], _summary(record)
@@ -84,8 +84,8 @@ def test_no_success_is_declared_when_only_distractors_are_there(
         return dataclasses.replace(spec, objects=objects)
 
     monkeypatch.setattr(sims.catalogue, "build_scene", without_visible_goal)
-    record = run_mission(
-        RunOptions(
+    record = run_episode(
+        EpisodeOptions(
             mission_path=MISSION,
             scene=scene,
             seed=1,
@@ -102,8 +102,8 @@ def test_no_success_is_declared_when_only_distractors_are_there(
 @pytest.mark.slow
 def test_dynamic_fidelity_mission_walks_with_the_rl_gait_without_falling() -> None:
     """Dynamic fidelity: legs, physics and the shipped RL gait realise the planner's twists."""
-    record = run_mission(
-        RunOptions(
+    record = run_episode(
+        EpisodeOptions(
             mission_path=MISSION,
             scene="showroom",
             seed=1,

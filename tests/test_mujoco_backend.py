@@ -14,8 +14,8 @@ from robots.camera import CameraConfig, depth_from_reversed_z
 from robots.go1 import load_go1_spec
 from robots.mjcf_scene import build_mjcf, geom_object_ids, object_id_from_geom_name
 from robots.mujoco_backend import BaseMotionLimits, MujocoRobot
-from semexp_bt.scene import SceneObject, SceneSpec
-from semexp_bt.types import BACKGROUND_OBJECT_ID, InvalidInputError, PixelGrid, Pose2D, Twist
+from semexp_bt.core.scene import SceneObject, SceneSpec
+from semexp_bt.core.types import BACKGROUND_OBJECT_ID, InvalidInputError, PixelGrid, Pose2D, Twist
 from sims.catalogue import build_scene
 from sims.episodes import sample_episode
 

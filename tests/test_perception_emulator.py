@@ -12,9 +12,9 @@ import yaml
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from semexp_bt.config import ConfigError
-from semexp_bt.scene import SceneObject, SceneSpec
-from semexp_bt.types import BACKGROUND_OBJECT_ID, InvalidInputError, Observation, Pose2D, Twist
+from semexp_bt.core.config import ConfigError
+from semexp_bt.core.scene import SceneObject, SceneSpec
+from semexp_bt.core.types import BACKGROUND_OBJECT_ID, InvalidInputError, Observation, Pose2D, Twist
 from sims.label_confusions import close_label_pairs, is_confusable, matches_prompt, normalise_label
 from sims.perception_calibration import (
     SYNTHETIC_INTRINSICS,

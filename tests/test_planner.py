@@ -1,4 +1,4 @@
-"""Tests of the depth-only local planner (``semexp_bt.planner``).
+"""Tests of the depth-only local planner (``semexp_bt.nav.planner``).
 
 Depth images are rendered analytically: pinhole rays from a Go1-like head camera are intersected with
 the floor and with axis-aligned boxes, so every expected outcome follows from simple geometry.
@@ -16,15 +16,15 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from semexp_bt.config import config_from_dict
-from semexp_bt.planner import (
+from semexp_bt.core.config import config_from_dict
+from semexp_bt.core.types import CameraIntrinsics, InvalidInputError, Pose2D
+from semexp_bt.nav.planner import (
     DepthArcPlanner,
     LocalPlanner,
     PlannerConfig,
     arc_points,
     depth_to_points,
 )
-from semexp_bt.types import CameraIntrinsics, InvalidInputError, Pose2D
 
 #: The brief's head camera: about 70 degrees horizontal field of view.
 HORIZONTAL_FOV_RAD = math.radians(70.0)

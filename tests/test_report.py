@@ -8,9 +8,8 @@ from typing import Any
 
 import pytest
 
-from semexp_bt.harness import EPISODES_FILE, STATUS_ERROR, STATUS_OK
-from semexp_bt.metrics import wilson_interval
-from semexp_bt.report import (
+from semexp_bt.bench.harness import EPISODES_FILE, STATUS_ERROR, STATUS_OK
+from semexp_bt.bench.report import (
     ALL_SCENES,
     cell_summaries,
     cell_text,
@@ -22,6 +21,7 @@ from semexp_bt.report import (
     write_paper_results,
     write_report,
 )
+from semexp_bt.core.metrics import wilson_interval
 
 
 def row(scene: str, strategy: str, seed: int, *, declared: bool, distance_m: float, path_m: float,

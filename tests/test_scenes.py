@@ -11,9 +11,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from semexp_bt.scene import SceneSpec
-from semexp_bt.types import InvalidInputError
-from sims import cli as scene_cli
+from semexp_bt.cli import scene as scene_cli
+from semexp_bt.core.scene import SceneSpec
+from semexp_bt.core.types import InvalidInputError
 from sims.catalogue import UnknownSceneError, build_scene, list_scenes, scene_summary
 from sims.geodesic import GeodesicOracle
 from sims.occupancy import GridGeometry, rasterise_object

@@ -8,8 +8,8 @@ from typing import Any
 
 import pytest
 
+from semexp_bt.bench.compare import compare_sweeps
 from semexp_bt.cli import main
-from semexp_bt.sweep_compare import compare_sweeps
 
 
 def row(key: str, *, wall_s: float, outcome: str = "success", **extra: Any) -> dict[str, Any]:

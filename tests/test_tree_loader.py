@@ -19,7 +19,6 @@ from behaviours.rate_limiter import RateLimiter
 from behaviours.sim_timeout import SimTimeout
 from behaviours.spec import BlackboardKey, BuildContext, ParamSpec
 from semexp_bt.cli import main as cli_main
-from semexp_bt.config import ArbitrationConfig, SemExpConfig
 from trees.docs_gen import node_reference_markdown
 from trees.loader import MissionLoadError, TreeError, analyse_mission, load_mission, validate_mission
 from trees.registry import NodeRegistry, behaviour_spec, default_registry
@@ -198,15 +197,6 @@ def test_basic_mission_builds_and_ticks_on_the_robot_clock() -> None:
     assert mission.root.status == Status.SUCCESS
     assert limiter.child_ticks == 3
     assert py_trees.blackboard.Blackboard.get("/target_label") == "fire extinguisher"
-
-
-def test_mission_config_overrides_apply_on_top_of_the_context_config() -> None:
-    base = SemExpConfig(arbitration=ArbitrationConfig(tau=0.4))
-    mission = load_mission(VALID / "basic.yaml", context=BuildContext(clock=FakeClock(), config=base))
-    assert mission.config.memory.delta_d == 0.8
-    assert mission.config.decision.gamma == 0.2
-    assert mission.config.arbitration.tau == 0.4  # the caller's value survives
-    assert mission.config.memory.rho == SemExpConfig().memory.rho
 
 
 def test_subtree_arguments_and_defaults_substitute_with_their_types() -> None:

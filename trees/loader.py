@@ -8,7 +8,6 @@ empty, so a mission never starts half-built. The format is specified in ``docs/t
 
 from __future__ import annotations
 
-import dataclasses
 import os
 import re
 from collections.abc import Iterator, Mapping
@@ -20,7 +19,7 @@ import py_trees
 import yaml
 
 from behaviours.spec import BLACKBOARD_KEY_PATTERN, BuildContext, ParamSpec
-from semexp_bt.config import ConfigError, SemExpConfig, config_from_dict, config_to_dict
+from semexp_bt.core.config import ConfigError, SemExpConfig, config_from_dict
 from trees.registry import NodeRegistry, NodeSpec, default_registry, did_you_mean
 
 __all__ = [
@@ -31,6 +30,7 @@ __all__ = [
     "SUBTREE_PARAMETER_KEYS",
     "BuildContext",
     "Mission",
+    "MissionDocument",
     "MissionLoadError",
     "MissionSettings",
     "NodeDecl",
@@ -38,6 +38,7 @@ __all__ = [
     "analyse_mission",
     "build_tree",
     "load_mission",
+    "parse_mission",
     "validate_mission",
 ]
 
@@ -54,7 +55,7 @@ SUBTREE_PARAMETER_KINDS: tuple[str, ...] = ("int", "float", "bool", "str", "list
 #: File suffixes an include may name (only YAML is ever read; nothing is imported or evaluated).
 SUBTREE_SUFFIXES: tuple[str, ...] = (".yaml", ".yml")
 
-#: The ``mission:`` section. ``config`` (SemExpConfig overrides) is validated by semexp_bt.config.
+#: The ``mission:`` section. ``config`` (SemExpConfig overrides) is validated by semexp_bt.core.config.
 MISSION_SETTINGS: dict[str, ParamSpec] = {
     "name": ParamSpec("str", doc="mission name for logs and records (default: the file's stem)", default=""),
     "instruction": ParamSpec("str", doc="the sentence naming the object to find", default=""),
@@ -167,9 +168,24 @@ class MissionSettings:
     config_overrides: dict[str, Any] = field(default_factory=dict)
 
 
+@dataclass(frozen=True)
+class MissionDocument:
+    """A validated mission file: its settings and its declaration tree, includes expanded (nothing built).
+
+    Attributes:
+        settings: the ``mission:`` section, defaults filled in.
+        declaration: the root node's declaration.
+        source: the file it was read from.
+    """
+
+    settings: MissionSettings
+    declaration: NodeDecl
+    source: Path
+
+
 @dataclass
 class Mission:
-    """A loaded mission: its settings, the py_trees root, and the effective config."""
+    """A built mission: its settings, the py_trees root, and the config its factories saw."""
 
     settings: MissionSettings
     root: py_trees.behaviour.Behaviour
@@ -1001,33 +1017,36 @@ def build_tree(decl: NodeDecl, registry: NodeRegistry, context: BuildContext) ->
         ) from exc
 
 
-def load_mission(path: str | Path, *, registry: NodeRegistry | None = None, context: BuildContext) -> Mission:
-    """Validate a mission file completely, then build its py_trees tree.
+def parse_mission(path: str | Path, registry: NodeRegistry | None = None) -> MissionDocument:
+    """Read and validate a mission file and its includes once, building nothing.
 
-    The mission's ``config:`` overrides apply on top of ``context.config``; factories see the result
-    in ``context.config`` and it is returned as ``Mission.config``.
+    Raises:
+        MissionLoadError: listing every problem (file, line, column).
+    """
+    settings, decl, errors = analyse_mission(path, registry)
+    if errors or settings is None or decl is None:
+        raise MissionLoadError(errors or [TreeError(str(path), 1, 1, "no tree")])
+    return MissionDocument(settings=settings, declaration=decl, source=Path(path))
+
+
+def load_mission(
+    mission: str | Path | MissionDocument, *, registry: NodeRegistry | None = None, context: BuildContext
+) -> Mission:
+    """Build the py_trees tree of a mission (parsed first when given a path) with ``context``.
+
+    The factories see ``context.config`` as it is: the mission's own ``config:`` section is one layer of
+    the configuration the application resolves before building (``semexp_bt.app.configuration``).
 
     Raises:
         MissionLoadError: listing every problem, before anything is built.
     """
     registry = registry if registry is not None else default_registry()
-    settings, decl, errors = analyse_mission(path, registry)
-    if errors or settings is None or decl is None:
-        raise MissionLoadError(errors or [TreeError(str(path), 1, 1, "no tree")])
-    config = context.config
-    if settings.config_overrides:
-        merged = _deep_merge(config_to_dict(config), settings.config_overrides)
-        config = config_from_dict(merged, where=str(path))
-    build_context = dataclasses.replace(context, config=config)
-    root = build_tree(decl, registry, build_context)
-    return Mission(settings=settings, root=root, config=config, source=Path(path), declaration=decl)
-
-
-def _deep_merge(base: dict[str, Any], extra: Mapping[str, Any]) -> dict[str, Any]:
-    out = dict(base)
-    for key, value in extra.items():
-        if isinstance(value, Mapping) and isinstance(out.get(key), dict):
-            out[key] = _deep_merge(out[key], value)
-        else:
-            out[key] = value
-    return out
+    document = mission if isinstance(mission, MissionDocument) else parse_mission(mission, registry)
+    root = build_tree(document.declaration, registry, context)
+    return Mission(
+        settings=document.settings,
+        root=root,
+        config=context.config,
+        source=document.source,
+        declaration=document.declaration,
+    )

@@ -1,7 +1,7 @@
 """The Unitree Go1 description: the MJCF (``go1.xml``) and the facts code reads (``go1.yaml``).
 
 Joint and actuator order everywhere is FR, FL, RR, RL x (hip, thigh, calf), as in
-:class:`semexp_bt.types.JointState`.
+:class:`semexp_bt.core.types.JointState`.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from semexp_bt.types import FloatArray
+from semexp_bt.core.types import FloatArray
 
 GO1_DIR = Path(__file__).resolve().parent
 GO1_XML_PATH = GO1_DIR / "go1.xml"

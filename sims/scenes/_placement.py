@@ -35,8 +35,8 @@ from typing import Any
 import numpy as np
 import yaml
 
-from semexp_bt.scene import SceneObject, SceneSpec
-from semexp_bt.types import InvalidInputError
+from semexp_bt.core.scene import SceneObject, SceneSpec
+from semexp_bt.core.types import InvalidInputError
 from sims.occupancy import (
     DEFAULT_RESOLUTION_M,
     GridGeometry,

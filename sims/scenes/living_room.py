@@ -8,7 +8,7 @@ Everything the scene holds (labels, categories, sizes, colours, roles, placement
 
 from __future__ import annotations
 
-from semexp_bt.scene import SceneSpec
+from semexp_bt.core.scene import SceneSpec
 from sims.scenes._placement import build_scene_from_data
 
 SCENE_NAME = "living_room"

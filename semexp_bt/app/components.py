@@ -1,0 +1,156 @@
+"""The one place that builds a mission's components by name: robot backend, perception source, relevance
+scorer, planner and gait.
+
+Each kind is a table from a name to a builder; a new backend, model or planner is one new module plus one
+row here. Builders take a :class:`ComponentRequest` (what the caller knows: the scene when it is a
+simulated one, the seed, the strategy, the fidelity) and import their implementation lazily, so that
+naming a component never loads the libraries of the others (``semexp-bt run --backend ros2`` needs no
+MuJoCo renderer; a lexical run needs no torch).
+
+Example:
+    >>> sorted(RELEVANCE_SCORERS)
+    ['embedding', 'lexical']
+    >>> build_relevance("lexical").score(instruction="find the red chair", label="chair") > 0.5
+    True
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, TypeVar, cast
+
+from semexp_bt.app.strategies import Strategy
+from semexp_bt.core.relevance import CachedRelevance
+from semexp_bt.core.types import InvalidInputError, Pose2D
+
+if TYPE_CHECKING:
+    from robots.gait_policy import GaitController
+    from robots.interface import Fidelity, Robot
+    from semexp_bt.core.scene import SceneSpec
+    from semexp_bt.nav.planner import LocalPlanner
+    from semexp_bt.perception.interface import PerceptionSource
+
+
+class UnknownComponentError(InvalidInputError):
+    """A component name that its table does not hold (the message lists the known ones)."""
+
+
+@dataclass(frozen=True)
+class ComponentRequest:
+    """What a builder may use.
+
+    Attributes:
+        seed: the episode's seed (noise of simulated sensors and models).
+        strategy: the strategy (which perception sources run, the emulated detector's profile).
+        fidelity: ``kinematic`` or ``dynamic``.
+        scene: the simulated scene, for simulated components (None on a real robot).
+        start_pose: where a simulated robot starts.
+    """
+
+    seed: int
+    strategy: Strategy
+    fidelity: Fidelity = "kinematic"
+    scene: SceneSpec | None = None
+    start_pose: Pose2D | None = None
+
+    def require_scene(self, component: str) -> SceneSpec:
+        """The simulated scene, or a clear error naming the component that needs one."""
+        if self.scene is None or self.start_pose is None:
+            raise InvalidInputError(f"{component} needs a simulated scene (give --scene)")
+        return self.scene
+
+
+def _mujoco_robot(request: ComponentRequest) -> Robot:
+    from robots.mujoco_backend import MujocoRobot
+
+    scene = request.require_scene("the mujoco backend")
+    assert request.start_pose is not None  # checked by require_scene
+    return MujocoRobot(
+        scene=scene, fidelity=request.fidelity, start_pose=request.start_pose, seed=request.seed
+    )
+
+
+def _emulated_perception(request: ComponentRequest) -> PerceptionSource:
+    from sims.perception_emulator import PerceptionEmulator
+
+    strategy = request.strategy
+    return PerceptionEmulator(
+        request.require_scene("the perception emulator"),
+        seed=request.seed,
+        detector_profile=cast(Any, strategy.detector_profile),
+        enable_vlm=strategy.enable_vlm,
+        enable_detector=strategy.enable_detector,
+    )
+
+
+def _embedding_relevance() -> CachedRelevance:
+    from semexp_bt.perception.embedding_relevance import shared_embedding_relevance
+
+    return CachedRelevance(shared_embedding_relevance())
+
+
+def _lexical_relevance() -> CachedRelevance:
+    from semexp_bt.core.relevance import LexicalRelevance
+
+    return CachedRelevance(LexicalRelevance())
+
+
+def _depth_arc_planner() -> LocalPlanner:
+    from semexp_bt.nav.planner import DepthArcPlanner
+
+    return DepthArcPlanner()
+
+
+#: Robot backends: name -> builder.
+ROBOT_BACKENDS: dict[str, Callable[[ComponentRequest], Robot]] = {"mujoco": _mujoco_robot}
+#: Perception sources: name -> builder.
+PERCEPTION_SOURCES: dict[str, Callable[[ComponentRequest], PerceptionSource]] = {
+    "emulator": _emulated_perception
+}
+#: Relevance scorers S in [0, 1]: name -> builder of a cached scorer (a fresh cache per mission).
+RELEVANCE_SCORERS: dict[str, Callable[[], CachedRelevance]] = {
+    "embedding": _embedding_relevance,
+    "lexical": _lexical_relevance,
+}
+#: Local planners: name -> builder.
+PLANNERS: dict[str, Callable[[], LocalPlanner]] = {"depth_arc": _depth_arc_planner}
+
+_T = TypeVar("_T")
+
+
+def _lookup(table: Mapping[str, _T], kind: str, name: str) -> _T:
+    try:
+        return table[name]
+    except KeyError:
+        raise UnknownComponentError(f"unknown {kind} {name!r}; known: {', '.join(sorted(table))}") from None
+
+
+def build_robot(name: str, request: ComponentRequest) -> Robot:
+    """The robot backend called ``name``."""
+    return _lookup(ROBOT_BACKENDS, "robot backend", name)(request)
+
+
+def build_perception(name: str, request: ComponentRequest) -> PerceptionSource:
+    """The perception source called ``name``."""
+    return _lookup(PERCEPTION_SOURCES, "perception source", name)(request)
+
+
+def build_relevance(name: str) -> CachedRelevance:
+    """The relevance scorer called ``name``, behind a fresh per-mission cache."""
+    return _lookup(RELEVANCE_SCORERS, "relevance scorer", name)()
+
+
+def build_planner(name: str) -> LocalPlanner:
+    """The local planner called ``name``."""
+    return _lookup(PLANNERS, "planner", name)()
+
+
+def build_gait(fidelity: Fidelity) -> GaitController | None:
+    """What realises twists: nothing in kinematic fidelity (the base follows the twist), the shipped RL
+    policy in dynamic fidelity (one controller per mission: it keeps its own state)."""
+    if fidelity != "dynamic":
+        return None
+    from robots.gait_policy import make_gait_controller
+
+    return cast("GaitController", make_gait_controller())

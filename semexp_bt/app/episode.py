@@ -1,0 +1,344 @@
+"""A simulated episode: a scene, a start pose, the MuJoCo robot and the perception emulator around one
+mission, scored against the ground truth the executive never sees.
+
+:func:`run_episode` builds the scene and the episode from the seed, the geodesic oracle (once), the
+components by name (``semexp_bt.app.components``), resolves the configuration
+(``semexp_bt.app.configuration``), runs the mission with :func:`semexp_bt.app.runner.run_mission` and
+returns the episode record: outcome, path length, L*, collisions, the reached object and its category,
+every decision with its candidates, utilities and GNSA's oracle node, and per-stage timings. The same seed
+and options give the same record (timings aside).
+
+Strategies (evidence and decision baselines of the paper's Tables I, II and IV) are configurations of
+the same tree, selected with ``strategy``; see ``semexp_bt/app/strategies.yaml``.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, TextIO, cast
+
+import numpy as np
+
+from semexp_bt.app.components import (
+    ComponentRequest,
+    build_gait,
+    build_perception,
+    build_planner,
+    build_relevance,
+    build_robot,
+)
+from semexp_bt.app.configuration import resolve_config
+from semexp_bt.app.recorder import TickRecorder
+from semexp_bt.app.runner import MissionComponents, MissionResult, PrivilegedKnowledge, run_mission
+from semexp_bt.app.strategies import Strategy, resolve_strategy
+from semexp_bt.core.metrics import DEFAULT_CLEARANCE_M, DEFAULT_SUCCESS_RADIUS_M
+from semexp_bt.core.scene import SceneObject, SceneSpec
+from sims.catalogue import build_scene
+from sims.episodes import Episode, sample_episode
+from sims.geodesic import GeodesicOracle
+from trees.loader import parse_mission
+
+#: ``trajectory_xy`` keeps a base position each time the robot has moved this far (m) since the last kept one.
+TRAJECTORY_STEP_M = 0.1
+#: A memory node lies on the object it describes (a blocked cell); the oracle measures from the nearest
+#: free cell within this radius (m), as the robot would stand next to the object.
+PRIVILEGED_SNAP_RADIUS_M = 1.0
+#: How far (m) from a memory node GNSA's oracle looks for the free cell the robot would stand on.
+ORACLE_NODE_SNAP_RADIUS_M = 1.5
+
+
+@dataclass
+class EpisodeOptions:
+    """How to run one simulated episode.
+
+    Attributes:
+        mission_path: the mission tree (YAML).
+        scene: scene name (``semexp-bt scene list``).
+        seed: seeds the scene layout, the start pose, the perception noise and everything else.
+        instruction: overrides the mission's/scene's instruction.
+        fidelity: ``kinematic`` or ``dynamic``; None takes the mission's setting.
+        strategy: a named strategy (``ours`` by default) from ``semexp_bt/app/strategies.yaml``.
+        relevance: ``embedding`` (default, offline MiniLM) or ``lexical`` (no torch).
+        planner: the local planner's name (``semexp_bt.app.components.PLANNERS``).
+        config_overrides: SemExpConfig overrides from the command line (the last layer).
+        display: print the tick-level display to ``display_stream``.
+        display_stream: where the display prints (stdout by default).
+        record_path: write the per-tick record (JSONL) here.
+        success_radius_m: r_s for SR.
+        clearance_m: the clearance threshold for OASR.
+        max_sim_s: hard cap on simulated time, whatever the tree says (a safety net).
+        keep_trajectory: add ``trajectory_xy`` (the base path, subsampled every
+            :data:`TRAJECTORY_STEP_M`) and ``memory_snapshot`` (``TopologicalMemory.snapshot()`` at the
+            end) to the record, for the harness's trajectory plots.
+    """
+
+    mission_path: Path
+    scene: str
+    seed: int
+    instruction: str | None = None
+    fidelity: str | None = None
+    strategy: str = "ours"
+    relevance: str = "embedding"
+    planner: str = "depth_arc"
+    config_overrides: Mapping[str, Any] | None = None
+    display: bool = False
+    display_stream: TextIO | None = None
+    record_path: Path | None = None
+    success_radius_m: float = DEFAULT_SUCCESS_RADIUS_M
+    clearance_m: float = DEFAULT_CLEARANCE_M
+    max_sim_s: float = 900.0
+    keep_trajectory: bool = False
+
+
+def run_episode(options: EpisodeOptions) -> dict[str, Any]:
+    """Run one simulated episode and return its record (JSON-serialisable)."""
+    wall_start = time.perf_counter()
+    mission = parse_mission(options.mission_path)
+    settings = mission.settings
+    strategy = resolve_strategy(options.strategy)
+    fidelity = options.fidelity or settings.fidelity or "kinematic"
+
+    scene = build_scene(options.scene, seed=options.seed)
+    oracle = GeodesicOracle(scene)
+    episode = sample_episode(scene, seed=options.seed, oracle=oracle)
+    instructions = list(settings.instructions) or ([settings.instruction] if settings.instruction else [])
+    if options.instruction or not instructions:
+        instructions = [options.instruction or scene.instruction]
+
+    config = resolve_config(
+        strategy_overrides=strategy.config_overrides,
+        mission_overrides=settings.config_overrides,
+        command_line_overrides=options.config_overrides,
+        strategy_source=f"strategy '{strategy.name}'",
+        mission_source=str(options.mission_path),
+    )
+    request = ComponentRequest(
+        seed=options.seed,
+        strategy=strategy,
+        fidelity=cast(Any, fidelity),
+        scene=scene,
+        start_pose=episode.start,
+    )
+    robot = build_robot("mujoco", request)
+    try:
+        components = MissionComponents(
+            robot=robot,
+            perception=build_perception("emulator", request),
+            relevance=build_relevance(options.relevance),
+            planner=build_planner(options.planner),
+            gait=build_gait(cast(Any, fidelity)),
+        )
+        privileged = None
+        if strategy.switches.get("decision") == "oracle":
+            privileged = privileged_goal(scene, oracle, success_radius_m=options.success_radius_m)
+        result = run_mission(
+            mission=mission,
+            components=components,
+            config=config,
+            instructions=instructions,
+            seed=options.seed,
+            strategy_switches=strategy.switches,
+            start_pose=episode.start,
+            max_time_s=options.max_sim_s,
+            observers=[
+                TickRecorder(path=options.record_path, display=options.display, stream=options.display_stream)
+            ],
+            privileged=privileged,
+        )
+        record = episode_record(
+            options=options,
+            scene=scene,
+            episode=episode,
+            oracle=oracle,
+            result=result,
+            fidelity=fidelity,
+            strategy=strategy,
+            wall_s=time.perf_counter() - wall_start,
+        )
+        if options.keep_trajectory:
+            record["trajectory_xy"] = subsample_path(result.positions, step_m=TRAJECTORY_STEP_M)
+            record["memory_snapshot"] = result.memory.snapshot()
+        return record
+    finally:
+        robot.close()
+
+
+def privileged_goal(
+    scene: SceneSpec, oracle: GeodesicOracle, *, success_radius_m: float
+) -> PrivilegedKnowledge:
+    """PRIVILEGED, for the ``oracle`` reference strategy: the goal's position and the true geodesic distance
+    ``(x, y) -> m`` into its success region, measured from the nearest free cell (within
+    :data:`PRIVILEGED_SNAP_RADIUS_M`; ``inf`` when none is free or the goal is unreachable)."""
+    goal_id = scene.goal.object_id
+
+    def distance(xy: tuple[float, float]) -> float:
+        point = snap_to_free(oracle, (float(xy[0]), float(xy[1])), max_m=PRIVILEGED_SNAP_RADIUS_M)
+        if point is None:
+            return math.inf
+        return float(oracle.distance_to_object(point, goal_id, success_radius_m=success_radius_m))
+
+    return PrivilegedKnowledge(
+        goal_xy=(float(scene.goal.position_m[0]), float(scene.goal.position_m[1])), goal_distance=distance
+    )
+
+
+def subsample_path(positions: list[np.ndarray], *, step_m: float) -> list[list[float]]:
+    """``(x, y)`` points of the path, one each time the base moved ``step_m`` since the last kept one."""
+    kept: list[list[float]] = []
+    for p in positions:
+        xy = [round(float(p[0]), 3), round(float(p[1]), 3)]
+        if not kept or math.hypot(xy[0] - kept[-1][0], xy[1] - kept[-1][1]) >= step_m:
+            kept.append(xy)
+    if positions and kept[-1] != [round(float(positions[-1][0]), 3), round(float(positions[-1][1]), 3)]:
+        kept.append([round(float(positions[-1][0]), 3), round(float(positions[-1][1]), 3)])
+    return kept
+
+
+def snap_to_free(
+    oracle: GeodesicOracle, xy: tuple[float, float], *, max_m: float
+) -> tuple[float, float] | None:
+    """The free cell centre nearest ``xy`` within ``max_m`` (memory nodes sit on object surfaces, inside
+    the inflated obstacles; the place the robot would stand to reach them is the nearest free cell)."""
+    if oracle.is_free(xy):
+        return xy
+    geometry = oracle.occupancy.geometry
+    free = oracle.occupancy.free
+    row, col = geometry.cell_of(xy)
+    reach = int(math.ceil(max_m / geometry.resolution_m))
+    r0, r1 = max(row - reach, 0), min(row + reach + 1, free.shape[0])
+    c0, c1 = max(col - reach, 0), min(col + reach + 1, free.shape[1])
+    rows, cols = np.nonzero(free[r0:r1, c0:c1])
+    if rows.size == 0:
+        return None
+    centres = geometry.centre_of(rows + r0, cols + c0)
+    dist = np.hypot(centres[:, 0] - xy[0], centres[:, 1] - xy[1])
+    best = int(np.argmin(dist))
+    return (float(centres[best, 0]), float(centres[best, 1])) if dist[best] <= max_m else None
+
+
+def with_oracle_nodes(
+    decision_log: list[dict[str, Any]], *, oracle: GeodesicOracle, goal_id: int, success_radius_m: float
+) -> list[dict[str, Any]]:
+    """Each decision step with GNSA's oracle node: the candidate minimising the true geodesic
+    robot -> node + node -> goal region (one distance field from the robot per step, one for the goal)."""
+    goal_field = oracle.object_distance_field(goal_id, success_radius_m=success_radius_m)
+    out = []
+    for step in decision_log:
+        oracle_node, best = None, math.inf
+        if step["candidates"]:
+            robot_field = oracle.distance_field(tuple(step["robot_xy"]))
+            for cand in step["candidates"]:
+                xy = snap_to_free(
+                    oracle, (cand["position_m"][0], cand["position_m"][1]), max_m=ORACLE_NODE_SNAP_RADIUS_M
+                )
+                if xy is None:
+                    continue
+                d = oracle.field_value(robot_field, xy) + oracle.field_value(goal_field, xy)
+                if d < best:
+                    best, oracle_node = d, cand["node_id"]
+        out.append({**step, "oracle_node_id": oracle_node})
+    return out
+
+
+def _reached_object(
+    scene: SceneSpec, anchor: tuple[float, float], final_xy: tuple[float, float], success_radius_m: float
+) -> SceneObject | None:
+    """The scene object nearest ``anchor`` (the confirmed target, or the final position), if the robot ended
+    within the success radius of it."""
+    candidates = [o for o in scene.objects if o.role != "wall"]
+    reached = min(candidates, key=lambda o: o.boundary_distance_m(anchor), default=None)
+    if reached is not None and reached.boundary_distance_m(final_xy) > success_radius_m:
+        return None
+    return reached
+
+
+def episode_record(
+    *,
+    options: EpisodeOptions,
+    scene: SceneSpec,
+    episode: Episode,
+    oracle: GeodesicOracle,
+    result: MissionResult,
+    fidelity: str,
+    strategy: Strategy,
+    wall_s: float,
+) -> dict[str, Any]:
+    """The episode's record: the executive's result scored against the scene's ground truth."""
+    goal = scene.goal
+    robot = result.services.robot
+    final = robot.base_pose()
+    final_xy = (final.x_m, final.y_m)
+    path = np.asarray(result.positions)
+    path_length = float(np.linalg.norm(np.diff(path, axis=0), axis=1).sum()) if len(path) > 1 else 0.0
+    safety = robot.safety()
+    collisions = [e for e in safety.events if e.kind == "collision"]
+    breaches = [e for e in safety.events if e.kind == "clearance" and e.distance_m < options.clearance_m]
+    found = result.found_objects
+    anchor = tuple(found[-1]["position_m"][:2]) if found else final_xy
+    reached = _reached_object(scene, (anchor[0], anchor[1]), final_xy, options.success_radius_m)
+
+    decisions = with_oracle_nodes(
+        result.services.decision_log,
+        oracle=oracle,
+        goal_id=goal.object_id,
+        success_radius_m=options.success_radius_m,
+    )
+    distance_to_goal = goal.boundary_distance_m(final_xy)
+    declared = result.outcome == "success"
+    # For missions that move on after confirming (search, then return), success is judged where the
+    # robot stood when it confirmed the goal object; for the paper's mission that is the final position.
+    judged_xy = final_xy
+    for entry in found:
+        if (
+            entry.get("robot_xy")
+            and goal.boundary_distance_m(tuple(entry["robot_xy"])) <= options.success_radius_m
+        ):
+            judged_xy = tuple(entry["robot_xy"])
+    judged_distance = goal.boundary_distance_m(judged_xy)
+    instructions = result.instructions
+    return {
+        "scene": scene.name,
+        "seed": options.seed,
+        "mission": str(options.mission_path),
+        "strategy": strategy.name,
+        "fidelity": fidelity,
+        "instruction": instructions[0],
+        "instructions": instructions,
+        "goal": {
+            "object_id": goal.object_id,
+            "name": goal.name,
+            "label": goal.label,
+            "category": goal.category,
+            "position_m": list(goal.position_m),
+        },
+        "start_pose": {"x_m": episode.start.x_m, "y_m": episode.start.y_m, "yaw_rad": episode.start.yaw_rad},
+        "outcome": result.outcome,
+        "success_declared": declared,
+        "success": bool(declared and judged_distance <= options.success_radius_m),
+        "success_radius_m": options.success_radius_m,
+        "final_pose": {"x_m": final.x_m, "y_m": final.y_m, "yaw_rad": final.yaw_rad},
+        "distance_to_goal_m": distance_to_goal,
+        "path_length_m": path_length,
+        "geodesic_length_m": float(episode.geodesic_length_m),
+        "collision": bool(collisions or breaches),
+        "collisions": len(collisions),
+        "clearance_breaches": len(breaches),
+        "min_clearance_m": float(safety.min_clearance_m) if math.isfinite(safety.min_clearance_m) else None,
+        "reached_object": None
+        if reached is None
+        else {"name": reached.name, "label": reached.label, "category": reached.category},
+        "reached_category": None if reached is None else reached.category,
+        "goal_category": goal.category,
+        "found_objects": found,
+        "decisions": decisions,
+        "events": result.services.events,
+        "timings": result.services.timings.summary(),
+        "tick_wall_ms": result.tick_wall_ms(),
+        "ticks": result.ticks,
+        "sim_time_s": result.sim_time_s,
+        "wall_time_s": wall_s,
+    }
