@@ -27,7 +27,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from semexp_bt.bench.harness import SweepResult, SweepSpec
+    from semexp_bt.bench.engine import SweepResult
+    from semexp_bt.bench.sweep import SweepSpec
 
 #: The repository's docs folder (results.md and its figures go there).
 DOCS_DIR = Path(__file__).resolve().parents[2] / "docs"
@@ -150,22 +151,23 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     if args.kind == "core":
-        from semexp_bt.bench.core import format_table, run_core_bench, write_json
+        from semexp_bt.bench.core import format_table, run_core_bench
+        from semexp_bt.core.durable import write_json
 
         result = run_core_bench(seed=args.seed, quick=args.quick)
         print(format_table(result))
         if args.json is not None:
-            write_json(result, args.json)
+            write_json(args.json, result)
         return 0 if all(result["floors_met"].values()) else 1
     if args.kind == "tree":
-        from semexp_bt.bench.core import write_json as write_tree_json
         from semexp_bt.bench.tree import format_table as tree_table
         from semexp_bt.bench.tree import run_tree_bench
+        from semexp_bt.core.durable import write_json as write_tree_json
 
         tree_result = run_tree_bench(ticks=args.ticks, seed=args.seed)
         print(tree_table(tree_result))
         if args.json is not None:
-            write_tree_json(tree_result, args.json)
+            write_tree_json(args.json, tree_result)
         return 0 if all(tree_result["floors_met"].values()) else 1
     if args.kind == "gait":
         from sims.gait_bench import format_table as gait_table
@@ -181,7 +183,7 @@ def run(args: argparse.Namespace) -> int:
             gait_json(gait_result, args.json)
         return 0 if all(gait_result["floors_met"].values()) else 1
 
-    from semexp_bt.bench.harness import HarnessError
+    from semexp_bt.bench.sweep import HarnessError
 
     try:
         if args.kind == "missions":
@@ -215,7 +217,7 @@ def _split(text: str) -> tuple[str, ...]:
 
 
 def _sweep(args: argparse.Namespace, specs: list[SweepSpec]) -> SweepResult:
-    from semexp_bt.bench.harness import run_sweep
+    from semexp_bt.bench.engine import run_sweep
 
     def _stop(signum: int, frame: Any) -> None:
         raise SystemExit(128 + signum)
@@ -230,7 +232,7 @@ def _sweep(args: argparse.Namespace, specs: list[SweepSpec]) -> SweepResult:
 
 
 def _missions(args: argparse.Namespace) -> int:
-    from semexp_bt.bench.harness import SweepSpec, parse_seeds
+    from semexp_bt.bench.sweep import SweepSpec, parse_seeds
 
     spec = SweepSpec(scenes=_split(args.scenes), seeds=parse_seeds(args.seeds), strategies=_split(args.strategies),
                      trajectories_per_cell=args.trajectories, **_spec_options(args))  # fmt: skip
@@ -245,8 +247,10 @@ def _missions(args: argparse.Namespace) -> int:
 
 
 def _paper(args: argparse.Namespace) -> int:
-    from semexp_bt.bench.harness import PaperProtocol, load_rows, smoke_specs
-    from semexp_bt.bench.report import write_paper_results, write_report
+    from semexp_bt.bench.paper_results import write_paper_results
+    from semexp_bt.bench.protocol import PaperProtocol, smoke_specs
+    from semexp_bt.bench.report import write_report
+    from semexp_bt.bench.store import load_rows
 
     options = _spec_options(args)
     if args.smoke:
@@ -299,8 +303,9 @@ def _report(args: argparse.Namespace) -> int:
 
 def _compare(args: argparse.Namespace) -> int:
     from semexp_bt.bench.compare import compare_sweeps, format_comparison
-    from semexp_bt.bench.core import write_json
-    from semexp_bt.bench.harness import EPISODES_FILE, HarnessError, load_rows
+    from semexp_bt.bench.store import EPISODES_FILE, load_rows
+    from semexp_bt.bench.sweep import HarnessError
+    from semexp_bt.core.durable import write_json
 
     for folder in (args.before, args.after):
         if not (folder / EPISODES_FILE).is_file():
@@ -308,7 +313,7 @@ def _compare(args: argparse.Namespace) -> int:
     comparison = compare_sweeps(load_rows(args.before), load_rows(args.after))
     print(format_comparison(comparison, before=args.before, after=args.after))
     if args.json is not None:
-        write_json(comparison.to_dict(), args.json)
+        write_json(args.json, comparison.to_dict())
         print(f"json: {args.json}")
     if comparison.matched == 0:
         print("error: the two sweeps share no finished episode", file=sys.stderr)
@@ -318,7 +323,8 @@ def _compare(args: argparse.Namespace) -> int:
 
 def _all_invocations(out_dir: Path) -> str:
     """The sweep's total wall time, from ``DIR/invocations.jsonl`` (a resumed sweep has several lines)."""
-    from semexp_bt.bench.harness import INVOCATIONS_FILE, HarnessError, load_invocations
+    from semexp_bt.bench.store import INVOCATIONS_FILE, load_invocations
+    from semexp_bt.bench.sweep import HarnessError
 
     try:
         invocations = load_invocations(out_dir)

@@ -7,13 +7,13 @@ choose the world and the start, and the record is scored against the scene's gro
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 from pathlib import Path
 from typing import Any
 
 from semexp_bt.app.components import PLANNERS, RELEVANCE_SCORERS, ROBOT_BACKENDS
+from semexp_bt.core.durable import write_json
 
 #: Backends whose missions run in a simulated scene (they need ``--scene``).
 SIMULATED_BACKENDS = ("mujoco",)
@@ -67,8 +67,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     if args.json is not None:
-        args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps(record, indent=1))
+        write_json(args.json, record)
     return _report(record)
 
 
