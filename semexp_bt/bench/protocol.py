@@ -13,10 +13,12 @@ from dataclasses import dataclass
 from typing import Any
 
 from semexp_bt.bench.sweep import SweepSpec
+from sims.catalogue import scenes_in_group
 
-#: The paper's five simulation scenes (Tables I and II) and the analogues of its five real scenes.
-SIM_SCENES = ("garden_sim", "sidewalk", "road", "warehouse_a", "warehouse_b")
-REAL_SCENES = ("office", "showroom", "laboratory", "living_room", "garden_real")
+#: The paper's five simulation scenes (Tables I and II) and the analogues of its five real scenes, as the
+#: scene catalogue (sims/scenes/catalogue.yaml) groups them.
+SIM_SCENES = scenes_in_group("simulation")
+REAL_SCENES = scenes_in_group("real_analogue")
 TABLE_I_STRATEGIES = ("vlm_only", "detector_only", "yolo_world", "naive_fusion", "ours")
 TABLE_II_STRATEGIES = ("bayesian", "llm_relevance", "vlfm", "hovsg", "ours")
 TABLE_III_REFERENCES = ("nearest_frontier", "oracle")
