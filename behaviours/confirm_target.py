@@ -48,6 +48,7 @@ from behaviours.spec import BuildContext, ParamSpec
 from semexp_bt.core.evidence import arbitrate, candidate_box
 from semexp_bt.core.geometry import back_project, object_surface_depth
 from semexp_bt.perception.interface import PerceptionJob
+from semexp_bt.perception.validation import screen_result
 
 
 def _in_view(point_m: tuple[float, float, float], observation) -> bool:
@@ -310,6 +311,9 @@ class ConfirmTarget(SemExpBehaviour):
             return py_trees.common.Status.RUNNING
         self._job = None
         self._views += 1
+        result = screen_result(result)  # a reply that is not evidence is missing, not used
+        for error in result.errors:
+            self.services.log_event("perception_error", message=error)
         observation = self._observation
         arbitration = arbitrate(
             scene=result.scene,

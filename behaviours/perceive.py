@@ -5,7 +5,9 @@ stable viewpoint: speed below ``stable_speed_mps`` and yaw rate below ``stable_y
 grabs one RGB-D frame and submits it to the perception service, which runs the VLM and the detector
 in parallel. It stays RUNNING while the models think (sim-time latency in MuJoCo, worker threads on a
 real robot) and never blocks a tick. When both answered it writes ``observation``, ``scene_evidence``
-and ``detections`` and returns SUCCESS. FAILURE when no answer arrives within ``timeout_s``.
+and ``detections`` and returns SUCCESS; a source whose reply is not usable evidence (NaN points,
+inverted boxes: ``semexp_bt.perception.validation``) is written as missing and its error logged.
+FAILURE when no answer arrives within ``timeout_s``.
 
 Example:
     - type: Perceive
@@ -23,6 +25,7 @@ from behaviours.base import SemExpBehaviour
 from behaviours.spec import BuildContext, ParamSpec
 from semexp_bt.core.types import Twist
 from semexp_bt.perception.interface import PerceptionJob
+from semexp_bt.perception.validation import screen_result
 
 
 class Perceive(SemExpBehaviour):
@@ -94,6 +97,7 @@ class Perceive(SemExpBehaviour):
         result = self._job.poll(now_s=self.now_s())
         if result is None:
             return py_trees.common.Status.RUNNING
+        result = screen_result(result)  # a reply that is not evidence is missing, not used
         self.write("scene_evidence", result.scene)
         self.write("detections", None if result.detections is None else tuple(result.detections))
         for error in result.errors:

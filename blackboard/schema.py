@@ -113,7 +113,7 @@ SCHEMA: dict[str, KeySpec] = dict(
         _spec(
             "cmd_twist",
             (Twist,),
-            ("LocalPlan", "RotateInPlace", "BackUp", "StopRobot"),
+            ("LocalPlan", "RotateInPlace", "BackUp", "StopRobot", "SensorHealthGuard"),
             "the base velocity command the gait executes",
         ),
         _spec(
@@ -127,8 +127,9 @@ SCHEMA: dict[str, KeySpec] = dict(
         _spec(
             "mission_outcome",
             (str,),
-            ("runner", "StopRobot", "MissionBudgetGuard", "FallGuard", "StuckGuard"),
-            "running | success | budget_exceeded | fallen | stuck | failed",
+            ("runner", "StopRobot", "MissionBudgetGuard", "FallGuard", "StuckGuard", "SensorHealthGuard"),
+            "running | success | budget_exceeded | fallen | stuck | failed | sensor_lost: <sensor> | "
+            "sensor_fault: <sensor>",
         ),
         _spec(
             "safety", (SafetyState, _NONE), ("ClearanceGuard", "FallGuard"), "the backend's last safety state"

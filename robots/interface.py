@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import abc
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
@@ -22,6 +23,24 @@ import numpy.typing as npt
 from semexp_bt.core.types import ImuReading, JointState, Observation, PixelGrid, Pose2D, SafetyState, Twist
 
 Fidelity = Literal["kinematic", "dynamic"]
+
+
+@dataclass(frozen=True)
+class SensorStamps:
+    """When each sensor last delivered data, on the backend clock (what a sensor-health guard reads).
+
+    A ROS 2 backend fills these from the header stamps of the newest message on each topic; a stamp
+    that stops advancing is a sensor that went silent.
+
+    Attributes:
+        camera_s: stamp of the newest RGB-D frame.
+        odometry_s: stamp of the newest odometry (base pose and twist).
+        imu_s: stamp of the newest IMU reading.
+    """
+
+    camera_s: float
+    odometry_s: float
+    imu_s: float
 
 
 class Robot(abc.ABC):
@@ -52,6 +71,16 @@ class Robot(abc.ABC):
         """
         del pixel_grids  # a whole frame serves any set of pixels
         return self.observe()
+
+    def sensor_stamps(self) -> SensorStamps:
+        """When the camera, odometry and IMU last delivered data (cheap: no rendering, no reading).
+
+        The default says every sensor is as new as the clock: right for a backend that reads its sensors
+        when asked (the MuJoCo backend renders the camera on demand). A backend with streaming sensors
+        (ROS 2) overrides it with the stamps of the newest messages.
+        """
+        now = self.now_s()
+        return SensorStamps(camera_s=now, odometry_s=now, imu_s=now)
 
     @abc.abstractmethod
     def base_pose(self) -> Pose2D:

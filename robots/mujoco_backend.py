@@ -158,6 +158,14 @@ def _yaw_quat(yaw_rad: float) -> FloatArray:
     return np.array([math.cos(yaw_rad / 2.0), 0.0, 0.0, math.sin(yaw_rad / 2.0)])
 
 
+def _copy_imu(reading: ImuReading) -> ImuReading:
+    return ImuReading(
+        angular_velocity_radps=reading.angular_velocity_radps.copy(),
+        linear_acceleration_mps2=reading.linear_acceleration_mps2.copy(),
+        orientation_wxyz=reading.orientation_wxyz.copy(),
+    )
+
+
 def _wrap_angle(angle_rad: float) -> float:
     return (angle_rad + math.pi) % (2.0 * math.pi) - math.pi
 
@@ -261,6 +269,7 @@ class MujocoRobot(Robot):
         self._in_clearance: set[int] = set()
         self._min_clearance_m = math.inf
         self._clock_target_s = 0.0
+        self._imu_sample: tuple[float, ImuReading] | None = None
 
         self._place_robot(start_pose)
         self._obstacle_aabb_min, self._obstacle_aabb_max = self._obstacle_world_aabbs()
@@ -479,6 +488,19 @@ class MujocoRobot(Robot):
         )
 
     def imu(self) -> ImuReading:
+        """The trunk IMU with its noise; one sample per instant, so readers at the same time agree.
+
+        A second read at the same simulated time (a sensor-health guard beside the gait) returns the same
+        sample and draws no new noise, so the gait sees the readings it would see alone.
+        """
+        now = float(self.data.time)
+        if self._imu_sample is not None and self._imu_sample[0] == now:
+            return _copy_imu(self._imu_sample[1])
+        reading = self._sample_imu()
+        self._imu_sample = (now, reading)
+        return _copy_imu(reading)
+
+    def _sample_imu(self) -> ImuReading:
         if self._fidelity == "kinematic":
             vx, vy, wz = self._base_velocity
             ax, ay, _ = self._base_accel
@@ -584,6 +606,7 @@ class MujocoRobot(Robot):
         """
         require_finite("pose", [pose.x_m, pose.y_m, pose.yaw_rad])
         now = self.data.time
+        self._imu_sample = None  # the base moved: a new sample, even at the same instant
         self._base_velocity = np.zeros(3)
         self._base_accel = np.zeros(3)
         if self._fidelity == "dynamic":

@@ -15,6 +15,7 @@ Example:
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 import numpy.typing as npt
@@ -25,6 +26,7 @@ from semexp_bt.core.types import (
     ImuReading,
     JointState,
     Observation,
+    PixelGrid,
     Pose2D,
     SafetyState,
     Twist,
@@ -81,11 +83,15 @@ class NullRobot(Robot):
 
     def render(self) -> tuple[npt.NDArray[np.float32], npt.NDArray[np.int32]]:
         """Depth (m along the optical axis, 0 = no return) and segmentation of the analytic world."""
+        return self._cast(self._rays)
+
+    def _cast(self, rays: npt.NDArray[np.float64]) -> tuple[npt.NDArray[np.float32], npt.NDArray[np.int32]]:
+        """Depth and segmentation along optical-frame rays of unit z (any leading shape)."""
         t = self._camera_to_world()
-        dirs = self._rays @ t[:3, :3].T  # world-frame ray per pixel, scaled so that depth = parameter
+        dirs = rays @ t[:3, :3].T  # world-frame ray per pixel, scaled so that depth = parameter
         origin = t[:3, 3]
-        depth = np.full(dirs.shape[:2], np.inf)
-        seg = np.full(dirs.shape[:2], -1, dtype=np.int32)
+        depth = np.full(dirs.shape[:-1], np.inf)
+        seg = np.full(dirs.shape[:-1], -1, dtype=np.int32)
         down = dirs[..., 2] < -1e-9
         depth[down] = -origin[2] / dirs[..., 2][down]
         for object_id, px, py, radius, height in self.posts:
@@ -143,6 +149,27 @@ class NullRobot(Robot):
             base_pose=self._pose,
             stamp_s=self._time_s,
             segmentation=seg,
+        )
+
+    def observe_depth(self, *, pixel_grids: Sequence[PixelGrid] | None = None) -> Observation:
+        """Depth only; with ``pixel_grids``, only those pixels are ray-cast and the others are NaN.
+
+        With ``render_once`` the first full frame is returned ever after, as :meth:`observe` does.
+        """
+        if pixel_grids is None or self.render_once:
+            return self.observe()
+        mask = np.zeros((IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX), dtype=bool)
+        for grid in pixel_grids:
+            mask |= grid.mask(height_px=IMAGE_HEIGHT_PX, width_px=IMAGE_WIDTH_PX)
+        depth = np.full((IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX), np.nan, dtype=np.float32)
+        depth[mask], _ = self._cast(self._rays[mask])
+        return Observation(
+            rgb=np.empty((0, 0, 3), dtype=np.uint8),
+            depth_m=depth,
+            intrinsics=self.intrinsics,
+            camera_to_world=self._camera_to_world(),
+            base_pose=self._pose,
+            stamp_s=self._time_s,
         )
 
     def base_pose(self) -> Pose2D:

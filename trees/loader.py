@@ -11,7 +11,7 @@ from __future__ import annotations
 import os
 import re
 from collections.abc import Iterator, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -42,8 +42,9 @@ __all__ = [
     "validate_mission",
 ]
 
-#: Top-level keys of a mission or subtree file.
-FILE_KEYS: tuple[str, ...] = ("mission", "parameters", "tree")
+#: Top-level keys of a mission or subtree file (``faults``: faults to inject in simulation, validated by
+#: ``sims.faults``; mission files only).
+FILE_KEYS: tuple[str, ...] = ("mission", "parameters", "tree", "faults")
 #: Keys of a node that names a type.
 NODE_KEYS: tuple[str, ...] = ("type", "name", "params", "remap", "children")
 #: Keys of a node that includes a subtree file.
@@ -166,6 +167,10 @@ class MissionSettings:
     fidelity: str = "kinematic"
     budget_s: float = 300.0
     config_overrides: dict[str, Any] = field(default_factory=dict)
+    faults: Any = None
+    """The top-level ``faults:`` section as YAML gave it (``sims.faults.parse_faults`` validates it)."""
+    faults_where: str = ""
+    """``file:line:column`` of that section, for its errors."""
 
 
 @dataclass(frozen=True)
@@ -467,6 +472,10 @@ class _Checker:
             return _Analysis(None, None, self.errors)
         sections = self._sections(items, display, root, is_subtree=False)
         settings = self._settings(sections.get("mission"), default_name=path.stem)
+        if "faults" in sections:
+            faults, ok = self.value(sections["faults"])
+            if ok:
+                settings = replace(settings, faults=faults, faults_where=str(_Where.of(sections["faults"])))
         # Checked on its own, a subtree's parameters take their defaults; one without a default is
         # unknown, and only its declared type is checked against the parameters it feeds.
         env = _env(self._parameters(sections.get("parameters")) or {})
@@ -496,6 +505,11 @@ class _Checker:
                     key_node,
                     "a subtree file must not have a 'mission' section; mission settings belong "
                     "in the top-level file",
+                )
+            elif key == "faults" and is_subtree:
+                self.error(
+                    key_node,
+                    "a subtree file must not have a 'faults' section; faults belong in the mission file",
                 )
             else:
                 sections[key] = value_node

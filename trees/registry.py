@@ -654,6 +654,7 @@ def product_behaviours() -> list[NodeSpec]:
     from behaviours.rate_limiter import RateLimiter
     from behaviours.rotate_in_place import RotateInPlace
     from behaviours.seed_master_node import SeedMasterNode
+    from behaviours.sensor_health_guard import SensorHealthGuard
     from behaviours.set_subgoal_to_start import SetSubgoalToStart
     from behaviours.sim_timeout import SimTimeout
     from behaviours.stop_robot import StopRobot
@@ -679,6 +680,7 @@ def product_behaviours() -> list[NodeSpec]:
         behaviour_spec(FallGuard),
         behaviour_spec(ClearanceGuard),
         behaviour_spec(StuckGuard),
+        behaviour_spec(SensorHealthGuard),
         # recovery
         behaviour_spec(BackUp),
         behaviour_spec(LowerSubgoalPotential),

@@ -25,11 +25,14 @@ from semexp_bt.core.relevance import CachedRelevance
 from semexp_bt.core.types import InvalidInputError, Pose2D
 
 if TYPE_CHECKING:
+    from collections.abc import Sequence
+
     from robots.gait_policy import GaitController
     from robots.interface import Fidelity, Robot
     from semexp_bt.core.scene import SceneSpec
     from semexp_bt.nav.planner import LocalPlanner
     from semexp_bt.perception.interface import PerceptionSource
+    from sims.faults import FaultSpec
 
 
 class UnknownComponentError(InvalidInputError):
@@ -154,3 +157,15 @@ def build_gait(fidelity: Fidelity) -> GaitController | None:
     from robots.gait_policy import make_gait_controller
 
     return cast("GaitController", make_gait_controller())
+
+
+def with_faults(
+    robot: Robot, perception: PerceptionSource, faults: Sequence[FaultSpec], *, seed: int
+) -> tuple[Robot, PerceptionSource]:
+    """``robot`` and ``perception`` behind the decorators that inject ``faults`` (``sims.faults``); both
+    as they are when there is no fault, so a fault-free mission runs on the components themselves."""
+    if not faults:
+        return robot, perception
+    from sims.faults import inject_faults
+
+    return inject_faults(robot, perception, faults, seed=seed)

@@ -16,13 +16,14 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TextIO, cast
 
 import numpy as np
 
+from robots.interface import Robot
 from semexp_bt.app.components import (
     ComponentRequest,
     build_gait,
@@ -30,15 +31,23 @@ from semexp_bt.app.components import (
     build_planner,
     build_relevance,
     build_robot,
+    with_faults,
 )
 from semexp_bt.app.configuration import resolve_config
 from semexp_bt.app.recorder import TickRecorder
-from semexp_bt.app.runner import MissionComponents, MissionResult, PrivilegedKnowledge, run_mission
+from semexp_bt.app.runner import (
+    MissionComponents,
+    MissionResult,
+    PrivilegedKnowledge,
+    TickObserver,
+    run_mission,
+)
 from semexp_bt.app.strategies import Strategy, resolve_strategy
 from semexp_bt.core.metrics import DEFAULT_CLEARANCE_M, DEFAULT_SUCCESS_RADIUS_M
 from semexp_bt.core.scene import SceneObject, SceneSpec
 from sims.catalogue import build_scene
 from sims.episodes import Episode, sample_episode
+from sims.faults import FaultSpec, parse_faults
 from sims.geodesic import GeodesicOracle
 from trees.loader import parse_mission
 
@@ -74,6 +83,9 @@ class EpisodeOptions:
         keep_trajectory: add ``trajectory_xy`` (the base path, subsampled every
             :data:`TRAJECTORY_STEP_M`) and ``memory_snapshot`` (``TopologicalMemory.snapshot()`` at the
             end) to the record, for the harness's trajectory plots.
+        faults: faults to inject (``sims.faults``); None takes the mission file's ``faults:`` section.
+            The record then names them under ``faults`` and is scored on the true robot state.
+        observers: more tick observers (a benchmark's probe), after the recorder.
     """
 
     mission_path: Path
@@ -92,6 +104,8 @@ class EpisodeOptions:
     clearance_m: float = DEFAULT_CLEARANCE_M
     max_sim_s: float = 900.0
     keep_trajectory: bool = False
+    faults: Sequence[FaultSpec] | None = None
+    observers: Sequence[TickObserver] = ()
 
 
 def run_episode(options: EpisodeOptions) -> dict[str, Any]:
@@ -99,6 +113,11 @@ def run_episode(options: EpisodeOptions) -> dict[str, Any]:
     wall_start = time.perf_counter()
     mission = parse_mission(options.mission_path)
     settings = mission.settings
+    faults = (
+        tuple(options.faults)
+        if options.faults is not None
+        else parse_faults(settings.faults, where=settings.faults_where or str(options.mission_path))
+    )
     strategy = resolve_strategy(options.strategy)
     fidelity = options.fidelity or settings.fidelity or "kinematic"
 
@@ -125,9 +144,13 @@ def run_episode(options: EpisodeOptions) -> dict[str, Any]:
     )
     robot = build_robot("mujoco", request)
     try:
+        # The mission runs on the decorated robot; the episode is scored on the robot itself.
+        mission_robot, perception = with_faults(
+            robot, build_perception("emulator", request), faults, seed=options.seed
+        )
         components = MissionComponents(
-            robot=robot,
-            perception=build_perception("emulator", request),
+            robot=mission_robot,
+            perception=perception,
             relevance=build_relevance(options.relevance),
             planner=build_planner(options.planner),
             gait=build_gait(cast(Any, fidelity)),
@@ -145,7 +168,10 @@ def run_episode(options: EpisodeOptions) -> dict[str, Any]:
             start_pose=episode.start,
             max_time_s=options.max_sim_s,
             observers=[
-                TickRecorder(path=options.record_path, display=options.display, stream=options.display_stream)
+                TickRecorder(
+                    path=options.record_path, display=options.display, stream=options.display_stream
+                ),
+                *options.observers,
             ],
             privileged=privileged,
         )
@@ -158,7 +184,10 @@ def run_episode(options: EpisodeOptions) -> dict[str, Any]:
             fidelity=fidelity,
             strategy=strategy,
             wall_s=time.perf_counter() - wall_start,
+            robot=robot,
         )
+        if faults:
+            record["faults"] = [fault.to_dict() for fault in faults]
         if options.keep_trajectory:
             record["trajectory_xy"] = subsample_path(result.positions, step_m=TRAJECTORY_STEP_M)
             record["memory_snapshot"] = result.memory.snapshot()
@@ -266,10 +295,15 @@ def episode_record(
     fidelity: str,
     strategy: Strategy,
     wall_s: float,
+    robot: Robot | None = None,
 ) -> dict[str, Any]:
-    """The episode's record: the executive's result scored against the scene's ground truth."""
+    """The episode's record: the executive's result scored against the scene's ground truth.
+
+    ``robot`` is the simulated robot itself (its true pose and contacts); the one the mission ran on
+    when None (the same robot unless faults were injected between them).
+    """
     goal = scene.goal
-    robot = result.services.robot
+    robot = robot if robot is not None else result.services.robot
     final = robot.base_pose()
     final_xy = (final.x_m, final.y_m)
     path = np.asarray(result.positions)

@@ -78,8 +78,11 @@ def prepare_pool_worker() -> None:
     watcher.start()
 
 
-def run_real_episode(task: EpisodeTask) -> dict[str, Any]:
-    """Run one episode with :func:`semexp_bt.app.episode.run_episode` (the default run function)."""
+def run_real_episode(task: EpisodeTask, **options: Any) -> dict[str, Any]:
+    """Run one episode with :func:`semexp_bt.app.episode.run_episode` (the default run function).
+
+    ``options`` are further ``EpisodeOptions`` fields (a benchmark's faults and probes).
+    """
     if task.relevance == "embedding":
         import torch
 
@@ -99,6 +102,7 @@ def run_real_episode(task: EpisodeTask) -> dict[str, Any]:
             clearance_m=task.clearance_m,
             max_sim_s=task.max_sim_s,
             keep_trajectory=task.keep_trajectory,
+            **options,
         )
     )
 

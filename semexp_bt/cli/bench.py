@@ -10,6 +10,10 @@ Kinds:
   ``semexp-bt bench paper --out DIR [--trials 20] [--workers 2] [--smoke]``.
 - ``gait``: the RL gait beside the reference trot (``sims.gait_bench``).
 - ``report``: (re)write ``DIR/report.md`` and its plots from ``DIR/episodes.jsonl``.
+- ``faults``: every fault class x scenes x seeds, with time to a safe stop and an ``unsafe`` count
+  (``semexp_bt.bench.faults``): ``semexp-bt bench faults --out DIR [--json OUT]``.
+- ``soak``: back-to-back missions in one process for a simulated hour: resident memory, memory size and
+  tick p99 at the start and the end (``semexp_bt.bench.soak``).
 
 Exit status: 0 when every episode finished, 1 when some were recorded as ``error`` or ``timeout`` (the
 sweep still ran the others), 2 on bad arguments.
@@ -69,7 +73,9 @@ def _add_sweep_options(parser: argparse.ArgumentParser) -> None:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    sub = parser.add_subparsers(dest="kind", metavar="{core,tree,gait,missions,paper,report,compare}")
+    sub = parser.add_subparsers(
+        dest="kind", metavar="{core,tree,gait,missions,paper,report,compare,faults,soak}"
+    )
     sub.required = True
     core = sub.add_parser("core", help="latency of arbitration, memory update and decision")
     core.add_argument("--json", type=Path, default=None, help="write the figures here as JSON")
@@ -148,6 +154,30 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     compare.add_argument("after", type=Path, help="the second sweep's output folder")
     compare.add_argument("--json", type=Path, default=None, help="write the comparison here as JSON")
 
+    faults = sub.add_parser("faults", help="every fault class x scenes x seeds: safe stops, unsafe commands")
+    faults.add_argument("--out", type=Path, required=True, help="output folder (one sweep folder per case)")
+    faults.add_argument("--json", type=Path, default=None, help="write the table here as JSON")
+    faults.add_argument(
+        "--scenes", default=None, help="comma-separated scenes (default: the benchmark's three)"
+    )
+    faults.add_argument("--seeds", default=None, help="e.g. 0-1 (default: the benchmark's)")
+    faults.add_argument(
+        "--cases", default=None, help="comma-separated cases (default: all; docs/reliability.md)"
+    )
+    faults.add_argument("--fidelity", choices=("kinematic", "dynamic"), default="kinematic")
+    faults.add_argument("--relevance", choices=("embedding", "lexical"), default="embedding")
+    faults.add_argument("--max-sim-s", type=float, default=None, help="cap per episode (s; default 240)")
+    faults.add_argument("--workers", type=int, default=max(1, (os.cpu_count() or 1)), help="worker processes")
+    faults.add_argument("--timeout-s", type=float, default=None, help="wall-time limit per episode (s)")
+    faults.add_argument("--quiet", action="store_true", help="no progress lines")
+
+    soak = sub.add_parser("soak", help="back-to-back missions for a simulated hour: memory and tick p99")
+    soak.add_argument("--json", type=Path, default=None, help="write the figures here as JSON")
+    soak.add_argument("--sim-hours", type=float, default=None, help="robot time to run (default 1 h)")
+    soak.add_argument("--scenes", default=None, help="comma-separated scenes (default: the soak's three)")
+    soak.add_argument("--relevance", choices=("embedding", "lexical"), default="embedding")
+    soak.add_argument("--max-missions", type=int, default=None, help="stop after this many missions")
+
 
 def run(args: argparse.Namespace) -> int:
     if args.kind == "core":
@@ -194,6 +224,10 @@ def run(args: argparse.Namespace) -> int:
             return _report(args)
         if args.kind == "compare":
             return _compare(args)
+        if args.kind == "faults":
+            return _faults(args)
+        if args.kind == "soak":
+            return _soak(args)
     except (HarnessError, FileNotFoundError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
@@ -319,6 +353,51 @@ def _compare(args: argparse.Namespace) -> int:
         print("error: the two sweeps share no finished episode", file=sys.stderr)
         return 2
     return 1 if comparison.differing else 0
+
+
+def _faults(args: argparse.Namespace) -> int:
+    from semexp_bt.bench.faults import CASES_BY_NAME, format_table, run_fault_bench
+    from semexp_bt.bench.sweep import HarnessError, parse_seeds
+    from semexp_bt.core.durable import write_json
+
+    cases = None if args.cases is None else list(_split(args.cases))
+    unknown = [c for c in cases or () if c not in CASES_BY_NAME]
+    if unknown:
+        raise HarnessError(f"unknown fault cases {unknown}; known: {sorted(CASES_BY_NAME)}")
+    chosen: dict[str, Any] = {"cases": cases}
+    if args.scenes is not None:
+        chosen["scenes"] = _split(args.scenes)
+    if args.seeds is not None:
+        chosen["seeds"] = parse_seeds(args.seeds)
+    if args.max_sim_s is not None:
+        chosen["max_sim_s"] = args.max_sim_s
+    result = run_fault_bench(args.out, fidelity=args.fidelity, relevance=args.relevance, workers=args.workers,
+                             timeout_s=args.timeout_s, progress=None if args.quiet else sys.stderr,
+                             **chosen)  # fmt: skip
+    result["machine"] = _machine()
+    result["command"] = "semexp-bt " + shlex.join(sys.argv[1:])
+    print(format_table(result))
+    if args.json is not None:
+        write_json(args.json, result)
+    return 0 if result["floors_met"] and not result["settings"]["errors"] else 1
+
+
+def _soak(args: argparse.Namespace) -> int:
+    from semexp_bt.bench.soak import format_table, run_soak
+    from semexp_bt.core.durable import write_json
+
+    chosen: dict[str, Any] = {"max_missions": args.max_missions}
+    if args.sim_hours is not None:
+        chosen["sim_hours"] = args.sim_hours
+    if args.scenes is not None:
+        chosen["scenes"] = _split(args.scenes)
+    result = run_soak(relevance=args.relevance, **chosen)
+    result["machine"] = _machine()
+    result["command"] = "semexp-bt " + shlex.join(sys.argv[1:])
+    print(format_table(result))
+    if args.json is not None:
+        write_json(args.json, result)
+    return 0 if result["floors_met"] else 1
 
 
 def _all_invocations(out_dir: Path) -> str:

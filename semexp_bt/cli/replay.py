@@ -1,8 +1,13 @@
-"""``semexp-bt replay TICKS.jsonl``: print a per-tick record back (what changed, tick by tick)."""
+"""``semexp-bt replay TICKS.jsonl``: print a per-tick record back (what changed, tick by tick).
+
+A record cut short by a killed mission replays up to its last whole tick; a torn last line is skipped
+and reported. Exit status 2 for a file that is missing or has a damaged line before the last.
+"""
 
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 
@@ -12,8 +17,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from semexp_bt.app.recorder import replay
+    from semexp_bt.app.recorder import RecordError, replay
 
-    ticks = replay(args.record, only_changes=not args.all)
+    try:
+        ticks = replay(args.record, only_changes=not args.all)
+    except RecordError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    except OSError as exc:
+        print(f"error: {args.record}: cannot read the record: {exc.strerror}", file=sys.stderr)
+        return 2
     print(f"{ticks} ticks")
     return 0

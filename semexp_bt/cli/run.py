@@ -51,6 +51,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", type=Path, default=None, help="write the episode record here")
     parser.add_argument("--record", type=Path, default=None, help="write the per-tick record (JSONL) here")
     parser.add_argument("--display", action="store_true", help="show the tick-level display")
+    parser.add_argument(
+        "--faults",
+        type=Path,
+        default=None,
+        help="YAML fault list to inject in simulation (docs/reliability.md); replaces the mission's faults:",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -74,6 +80,7 @@ def run(args: argparse.Namespace) -> int:
 def _run(args: argparse.Namespace) -> dict[str, Any]:
     from semexp_bt.app.configuration import read_config_file
     from semexp_bt.app.episode import EpisodeOptions, run_episode
+    from sims.faults import load_faults_file
 
     return run_episode(
         EpisodeOptions(
@@ -88,6 +95,7 @@ def _run(args: argparse.Namespace) -> dict[str, Any]:
             config_overrides=None if args.config is None else read_config_file(args.config),
             display=args.display,
             record_path=args.record,
+            faults=None if args.faults is None else load_faults_file(args.faults),
         )
     )
 

@@ -1,0 +1,200 @@
+"""``semexp-bt bench soak``: back-to-back missions in one process for a simulated hour, watched for growth.
+
+A robot that runs all day runs its missions in one process. The soak runs simulated episodes
+(``semexp_bt.app.episode.run_episode``, MuJoCo, the emulator, the embedding scorer) one after another,
+cycling through :data:`DEFAULT_SCENES` with rising seeds, until :data:`DEFAULT_SIM_HOURS` of robot time
+have passed. After each mission (and a garbage collection) it records the process's resident memory,
+the topological memory's size at the mission's end, the mission's tick median and p99, the py_trees
+blackboard's size and the live objects of the kinds a leak would pile up (behaviours, MuJoCo models and
+data, cameras).
+
+Floors: resident memory after the last mission within :data:`MAX_RSS_GROWTH` of what it was after the first
+mission (the first mission loads the models and builds the caches a process keeps), and the tick p99 not
+rising: the median p99 of the last third of the missions within :data:`P99_TOLERANCE` of the first third's
+(the tolerance is the run-to-run noise of a shared machine).
+"""
+
+from __future__ import annotations
+
+import gc
+import os
+import statistics
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any, TextIO
+
+import py_trees
+
+from semexp_bt.app.runner import MissionRun
+
+DEFAULT_SCENES = ("office", "living_room", "laboratory")
+DEFAULT_SIM_HOURS = 1.0
+#: Resident memory may grow this much (a fraction) after the first mission.
+MAX_RSS_GROWTH = 0.05
+#: The last third's median tick p99 may exceed the first third's by this fraction.
+P99_TOLERANCE = 0.2
+#: Kinds of object counted after each mission: what a leak would pile up, by qualified class name.
+WATCHED_TYPES = (
+    "py_trees.behaviour.Behaviour",
+    "mujoco._structs.MjModel",
+    "mujoco._structs.MjData",
+    "robots.camera.RgbdCamera",
+    "semexp_bt.core.memory.TopologicalMemory",
+)
+
+
+def resident_bytes() -> int:
+    """This process's resident set size (Linux ``/proc/self/statm``; 0 where it cannot be read)."""
+    try:
+        pages = int(Path("/proc/self/statm").read_text().split()[1])
+    except (OSError, IndexError, ValueError):
+        return 0
+    return pages * os.sysconf("SC_PAGE_SIZE")
+
+
+def live_objects() -> dict[str, int]:
+    """How many objects of each :data:`WATCHED_TYPES` kind (or a subclass) are alive."""
+    counts = dict.fromkeys(WATCHED_TYPES, 0)
+    for obj in gc.get_objects():
+        for klass in type(obj).__mro__:
+            name = f"{klass.__module__}.{klass.__qualname__}"
+            if name in counts:
+                counts[name] += 1
+                break
+    return counts
+
+
+class MemoryProbe:
+    """A tick observer that keeps the size of the topological memory when the mission ends."""
+
+    wants_activity_stream = False
+
+    def __init__(self) -> None:
+        self.nodes = 0
+        self.edges = 0
+
+    def start(self, run: MissionRun) -> None:
+        pass
+
+    def after_tick(self, run: MissionRun) -> None:
+        pass
+
+    def finish(self, run: MissionRun, outcome: str) -> None:
+        memory = run.board.memory
+        self.nodes, self.edges = len(memory), memory.graph.number_of_edges()
+
+
+def run_soak(
+    *,
+    sim_hours: float = DEFAULT_SIM_HOURS,
+    scenes: Sequence[str] = DEFAULT_SCENES,
+    relevance: str = "embedding",
+    mission_path: Path | None = None,
+    max_missions: int | None = None,
+    progress: TextIO | None = sys.stderr,
+) -> dict[str, Any]:
+    """Run missions back to back until ``sim_hours`` of robot time (or ``max_missions``) and measure.
+
+    Returns:
+        ``missions`` (one entry per mission), ``start`` and ``end`` (the first and last mission's
+        figures), ``floors`` and ``floors_met``.
+    """
+    from semexp_bt.app.episode import EpisodeOptions, run_episode
+    from semexp_bt.bench.sweep import default_mission_path
+
+    if relevance == "embedding":
+        import torch
+
+        torch.set_num_threads(1)
+    mission = mission_path or default_mission_path()
+    missions: list[dict[str, Any]] = []
+    sim_s = 0.0
+    started = time.perf_counter()
+    index = 0
+    while sim_s < sim_hours * 3600.0 and (max_missions is None or index < max_missions):
+        scene, seed = scenes[index % len(scenes)], index // len(scenes)
+        probe = MemoryProbe()
+        record = run_episode(
+            EpisodeOptions(
+                mission_path=mission, scene=scene, seed=seed, relevance=relevance, observers=[probe]
+            )
+        )
+        del record["events"], record["decisions"]
+        gc.collect()
+        sim_s += float(record["sim_time_s"])
+        entry = {
+            "mission": index,
+            "scene": scene,
+            "seed": seed,
+            "outcome": record["outcome"],
+            "sim_time_s": round(float(record["sim_time_s"]), 1),
+            "sim_total_s": round(sim_s, 1),
+            "ticks": record["ticks"],
+            "tick_median_ms": round(record["tick_wall_ms"]["median"], 3),
+            "tick_p99_ms": round(record["tick_wall_ms"]["p99"], 3),
+            "memory_nodes": probe.nodes,
+            "memory_edges": probe.edges,
+            "rss_mb": round(resident_bytes() / 2**20, 1),
+            "blackboard_keys": len(py_trees.blackboard.Blackboard.storage),
+            "live_objects": live_objects(),
+            "wall_s": round(time.perf_counter() - started, 1),
+        }
+        missions.append(entry)
+        index += 1
+        if progress is not None:
+            print(f"[soak] mission {index}: {scene}/{seed} {entry['outcome']}, sim {sim_s / 60:.1f} min, "
+                  f"rss {entry['rss_mb']} MB, p99 {entry['tick_p99_ms']} ms, memory {probe.nodes} nodes",
+                  file=progress, flush=True)  # fmt: skip
+    return summarise(missions)
+
+
+def summarise(missions: list[dict[str, Any]]) -> dict[str, Any]:
+    """Start and end figures and the floors (see the module docstring)."""
+    if not missions:
+        return {"missions": [], "floors": {}, "floors_met": False}
+    first, last = missions[0], missions[-1]
+    third = max(1, len(missions) // 3)
+    p99_start = statistics.median(m["tick_p99_ms"] for m in missions[:third])
+    p99_end = statistics.median(m["tick_p99_ms"] for m in missions[-third:])
+    growth = last["rss_mb"] / first["rss_mb"] - 1.0 if first["rss_mb"] > 0 else float("nan")
+    floors = {
+        f"resident memory grows under {MAX_RSS_GROWTH:.0%} after the first mission": bool(
+            growth < MAX_RSS_GROWTH
+        ),
+        f"tick p99 not rising (last third within {P99_TOLERANCE:.0%} of the first)": bool(
+            p99_end <= p99_start * (1.0 + P99_TOLERANCE)
+        ),
+    }
+    return {
+        "missions": missions,
+        "sim_hours": round(last["sim_total_s"] / 3600.0, 3),
+        "start": {"rss_mb": first["rss_mb"], "tick_p99_ms": p99_start, "memory_nodes": first["memory_nodes"]},
+        "end": {"rss_mb": last["rss_mb"], "tick_p99_ms": p99_end, "memory_nodes": last["memory_nodes"]},
+        "rss_growth": round(growth, 4),
+        "floors": floors,
+        "floors_met": all(floors.values()),
+    }
+
+
+def format_table(result: dict[str, Any]) -> str:
+    """Each mission's figures and the floors, as markdown."""
+    lines = [
+        "| mission | scene/seed | outcome | sim total min | tick p99 ms | memory nodes | RSS MB | behaviours alive |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- |",
+    ]
+    for m in result["missions"]:
+        lines.append(
+            f"| {m['mission']} | {m['scene']}/{m['seed']} | {m['outcome']} | {m['sim_total_s'] / 60:.1f} | "
+            f"{m['tick_p99_ms']:.2f} | {m['memory_nodes']} | {m['rss_mb']:.1f} | "
+            f"{m['live_objects']['py_trees.behaviour.Behaviour']} |"
+        )
+    if result["missions"]:
+        lines += ["", f"- resident memory growth after the first mission: {100 * result['rss_growth']:.1f} %"]
+        lines.append(
+            f"- tick p99: {result['start']['tick_p99_ms']:.2f} ms (first third) -> "
+            f"{result['end']['tick_p99_ms']:.2f} ms (last third)"
+        )
+    lines += [f"- {name}: {'met' if ok else 'NOT met'}" for name, ok in result["floors"].items()]
+    return "\n".join(lines)
