@@ -1,4 +1,5 @@
-"""Mission-tree format: registry, validating loader, sim-clock decorators, `semexp-bt tree`."""
+"""Mission-tree format: registry, validating loader, `semexp-bt tree` (the sim-clock decorators' own tests are
+in tests/behaviours/)."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ from typing import Any, ClassVar
 
 import py_trees
 import pytest
-from hypothesis import given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 from py_trees.common import Access, Status
 
@@ -325,96 +326,6 @@ SHIPPED = sorted([*REPO.glob("trees/*.yaml"), *REPO.glob("trees/subtrees/*.yaml"
 def test_shipped_tree_passes_check(path: Path) -> None:
     errors = validate_mission(path)
     assert errors == [], "\n".join(str(e) for e in errors)
-
-
-# --------------------------------------------------------------------------------------------------
-# SimTimeout and RateLimiter follow the robot clock
-# --------------------------------------------------------------------------------------------------
-
-
-def test_sim_timeout_fails_a_running_child_at_the_deadline() -> None:
-    clock = FakeClock(10.0)
-    child = py_trees.behaviours.TickCounter(name="Long", duration=100, completion_status=Status.SUCCESS)
-    timeout = SimTimeout(name="T", child=child, duration_s=1.0, context=BuildContext(clock=clock))
-    statuses = []
-    for now_s in (10.0, 10.3, 10.6, 10.9, 11.0):
-        clock.now_s = now_s
-        timeout.tick_once()
-        statuses.append(timeout.status)
-    print(py_trees.display.unicode_tree(timeout, show_status=True))
-    assert statuses == [Status.RUNNING] * 4 + [Status.FAILURE]
-    assert child.counter == 4  # not ticked past its deadline
-    assert child.status == Status.INVALID
-    # Re-entering re-arms the deadline from the new time.
-    clock.now_s = 50.0
-    timeout.tick_once()
-    assert timeout.status == Status.RUNNING
-
-
-def test_sim_timeout_passes_an_early_result_through_and_ignores_the_wall_clock() -> None:
-    clock = FakeClock()
-    child = py_trees.behaviours.TickCounter(name="Short", duration=2, completion_status=Status.FAILURE)
-    timeout = SimTimeout(name="T", child=child, duration_s=0.5, context=BuildContext(clock=clock))
-    statuses = []
-    for _ in range(3):
-        timeout.tick_once()  # the robot clock stands still: no timeout however long this takes
-        statuses.append(timeout.status)
-    assert statuses == [Status.RUNNING, Status.RUNNING, Status.FAILURE]
-
-
-def test_rate_limiter_ticks_the_child_on_a_grid_and_holds_its_status() -> None:
-    clock = FakeClock()
-    queue = [Status.RUNNING, Status.SUCCESS, Status.FAILURE]
-    child = py_trees.behaviours.StatusQueue(name="Q", queue=queue, eventually=None)  # cycles the queue
-    limiter = RateLimiter(name="R", child=child, rate_hz=12.0, context=BuildContext(clock=clock))
-    seen = []
-    for tick in range(26):  # 50 Hz for 0.5 s
-        clock.now_s = tick * 0.02
-        limiter.tick_once()
-        seen.append((limiter.child_ticks, limiter.status))
-    # Due at 0, 1/12, 2/12, ... s: the first tick at or after each: t = 0, .1, .18, .26, .34, .42, .5.
-    ticked_at = [i for i in range(26) if i == 0 or seen[i][0] != seen[i - 1][0]]
-    assert ticked_at == [0, 5, 9, 13, 17, 21, 25]
-    # The child's status is held until its next tick: R until tick 5, S until 9, F until 13, then R.
-    statuses = [status for _, status in seen]
-    assert statuses[:14] == [Status.RUNNING] * 5 + [Status.SUCCESS] * 4 + [Status.FAILURE] * 4 + [
-        Status.RUNNING
-    ]
-
-
-def test_rate_limiter_restarts_after_interruption() -> None:
-    clock = FakeClock()
-    child = py_trees.behaviours.Running(name="Run")
-    limiter = RateLimiter(name="R", child=child, rate_hz=1.0, context=BuildContext(clock=clock))
-    limiter.tick_once()
-    limiter.stop(Status.INVALID)  # a higher-priority branch took over
-    clock.now_s = 0.1
-    limiter.tick_once()
-    assert limiter.child_ticks == 2
-
-
-@settings(max_examples=60, deadline=None)
-@given(
-    rate_hz=st.floats(0.5, 60.0),
-    steps=st.lists(st.floats(0.001, 0.3), min_size=1, max_size=120),
-)
-def test_rate_limiter_never_exceeds_its_rate(rate_hz: float, steps: list[float]) -> None:
-    clock = FakeClock()
-    child = py_trees.behaviours.Running(name="Run")
-    limiter = RateLimiter(name="R", child=child, rate_hz=rate_hz, context=BuildContext(clock=clock))
-    tick_times = []
-    for dt in [0.0, *steps]:
-        clock.now_s += dt
-        before = limiter.child_ticks
-        limiter.tick_once()
-        if limiter.child_ticks != before:
-            tick_times.append(clock.now_s)
-    elapsed = clock.now_s
-    assert tick_times[0] == 0.0
-    assert len(tick_times) <= math.floor(elapsed * rate_hz + 1e-6) + 1
-    # ... and never starves it: consecutive child ticks are at most one period plus one tree step apart.
-    gaps = [b - a for a, b in zip(tick_times, tick_times[1:], strict=False)]
-    assert all(gap <= 1.0 / rate_hz + max(steps) + 1e-9 for gap in gaps)
 
 
 # --------------------------------------------------------------------------------------------------

@@ -165,6 +165,12 @@ class Rig:
                 break
         return statuses
 
+    def halt(self, behaviour: py_trees.behaviour.Behaviour) -> None:
+        """Halt the behaviour as a parent does when another branch takes over (``stop(INVALID)``), then
+        print it."""
+        behaviour.stop(py_trees.common.Status.INVALID)
+        self.show(behaviour)
+
     def show(self, behaviour: py_trees.behaviour.Behaviour) -> None:
         """Print the tree the test asserts on, with each node's status and feedback."""
         print(py_trees.display.unicode_tree(behaviour, show_status=True))
