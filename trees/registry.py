@@ -144,10 +144,6 @@ class NodeRegistry:
     def __len__(self) -> int:
         return len(self._specs)
 
-    def type_names(self) -> list[str]:
-        """All type names, sorted."""
-        return sorted(self._specs)
-
     def suggest(self, type_name: str) -> str | None:
         """The registered type closest to a misspelt one (case-insensitive first), or ``None``."""
         return did_you_mean(type_name, self._specs)
