@@ -13,6 +13,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from semexp_bt.app.executive import RUNNER_KEYS
 from trees.docs_gen import node_reference_markdown
 from trees.loader import MissionSettings, NodeDecl, analyse_mission, validate_mission
 from trees.registry import NodeRegistry, default_registry
@@ -74,8 +75,14 @@ def _show(path: Path, registry: NodeRegistry) -> int:
     return 0
 
 
+def node_reference(registry: NodeRegistry) -> str:
+    """``docs/node_reference.md``: the registry's node types, and the blackboard keys with their writers
+    (the runner's initial board among them)."""
+    return node_reference_markdown(registry, other_writers={"runner": RUNNER_KEYS})
+
+
 def _docs(out: Path | None, registry: NodeRegistry) -> int:
-    text = node_reference_markdown(registry)
+    text = node_reference(registry)
     if out is None:
         sys.stdout.write(text)
     else:
