@@ -39,6 +39,7 @@ import errno
 import os
 import re
 import stat
+import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -59,6 +60,7 @@ __all__ = [
     "load_yaml_file",
     "node_value",
     "read_yaml_text",
+    "shorten",
 ]
 
 #: Largest file read, in bytes. The shipped mission trees are 0.7-2.1 kB; PyYAML's pure-Python parser
@@ -412,6 +414,8 @@ def node_value(node: yaml.Node) -> Any:
         at, failure = _first_invalid_scalar(node) or (node, failure)
         mark = at.start_mark
     reason = getattr(failure, "problem", None) or str(failure)
+    if "int_max_str_digits" in reason:  # Python's own guard against quadratic int() of huge numbers
+        reason = f"integer longer than {sys.get_int_max_str_digits()} digits"
     line, column = _mark_position(mark)
     raise YamlSourceError(mark.name, f"invalid value: {reason}", line, column)
 
