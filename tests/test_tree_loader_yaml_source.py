@@ -242,6 +242,9 @@ def test_invalid_scalar_value_is_located(tmp_path: Path) -> None:
         refusal(write(tmp_path, "? [a]\n: 1\n", "key.yaml"))
         == "key.yaml:1:3: invalid value: found unhashable key"
     )
+    assert refusal(write(tmp_path, "a: " + "9" * 5000 + "\n", "long.yaml")) == (
+        f"long.yaml:1:4: invalid value: integer longer than {sys.get_int_max_str_digits()} digits"
+    )
 
 
 def test_limits_are_parameters(tmp_path: Path) -> None:
