@@ -31,7 +31,8 @@ from trees.registry import default_registry
 
 REPO = Path(__file__).resolve().parents[1]
 SHIPPED = REPO / "trees"
-#: Per example: reading one file and its includes; a parse takes milliseconds, the bound is generous.
+#: Per example, in CPU time of this process (other load on a shared machine does not count): reading one
+#: file and its includes takes milliseconds (a shipped mission about 15 ms), the bound is generous.
 EXAMPLE_TIME_BOUND_S = 2.0
 LOCATED = re.compile(r"^[^\n]+:(?P<line>\d+):(?P<column>\d+): [^\n]+$")
 FUZZ_SETTINGS = settings(
@@ -106,7 +107,7 @@ def workspace() -> Iterator[Path]:
 
 def check_file(path: Path) -> None:
     """The property: reads, or raises MissionLoadError, each line located; within the time bound."""
-    started = time.perf_counter()
+    started = time.process_time()
     try:
         document = parse_mission(path)
     except MissionLoadError as exc:
@@ -119,8 +120,8 @@ def check_file(path: Path) -> None:
             assert error.file, text
     else:
         assert document.declaration.type_name in TYPES
-    elapsed = time.perf_counter() - started
-    assert elapsed < EXAMPLE_TIME_BOUND_S, f"{path.name} took {elapsed:.2f} s"
+    elapsed = time.process_time() - started
+    assert elapsed < EXAMPLE_TIME_BOUND_S, f"{path.name} took {elapsed:.2f} s of CPU"
 
 
 # --------------------------------------------------------------------------------------------------
