@@ -1,13 +1,19 @@
 """BackUp: step away from what the robot is stuck against, the first step of a Nav2-style recovery.
 
-Semantics: on start it picks, among eight body-frame directions (back, back-left, left, ... never
-straight ahead, where the planner already failed), the one with the most free room on the occupancy map
-(``local_map``): it uses the mapped distance to the nearest obstacle at ``distance_m`` along each
-direction. With no map it picks straight back. It is RUNNING while commanding that direction at
-``speed_mps``, until the base has moved ``distance_m``, then SUCCESS. It is also SUCCESS (with a note)
-after ``timeout_s``, so recovery never hangs on a robot boxed in on every side. A legged robot can step
-sideways, so side steps are allowed; the map remembers walls the camera no longer sees, so the step is
-not blind.
+Semantics:
+
+- On start it picks, among seven body-frame directions (back, back-left, back-right, left, right,
+  front-left, front-right; never straight ahead, where the planner already failed), the one with the most
+  free room on the occupancy map: the mapped distance to the nearest obstacle at ``distance_m`` along
+  each direction. With no map, or nothing mapped as occupied, it picks straight back.
+- RUNNING: while commanding that direction at ``speed_mps`` and the base has moved less than
+  ``distance_m``.
+- SUCCESS: once the base has moved ``distance_m``, or after ``timeout_s`` however far it got, so
+  recovery never hangs on a robot boxed in on every side; it commands a zero twist first. It never fails.
+- Halted while RUNNING: it commands a zero twist.
+
+Reads ``local_map``; writes ``cmd_twist`` and ``cmd_stamp_s``. A legged robot can step sideways, so side
+steps are allowed; the map remembers walls the camera no longer sees, so the step is not blind.
 
 Example:
     - type: BackUp
@@ -18,13 +24,13 @@ Example:
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from typing import Any
 
 import py_trees
 
 from behaviours.base import SemExpBehaviour
-from behaviours.spec import BuildContext, ParamSpec
-from semexp_bt.core.types import Twist
+from behaviours.spec import param
+from semexp_bt.core.types import Pose2D, Twist
 
 #: Candidate escape headings in the body frame (radians from forward), straight ahead excluded.
 ESCAPE_HEADINGS_RAD = tuple(math.radians(a) for a in (180, 135, -135, 90, -90, 45, -45))
@@ -33,26 +39,13 @@ ESCAPE_HEADINGS_RAD = tuple(math.radians(a) for a in (180, 135, -135, 90, -90, 4
 class BackUp(SemExpBehaviour):
     READS = ("local_map",)
     WRITES = ("cmd_twist", "cmd_stamp_s")
-    PARAMS = {
-        "distance_m": ParamSpec("float", doc="distance to step away, m", default=0.3, gt=0.0, le=2.0),
-        "speed_mps": ParamSpec("float", doc="stepping speed, m/s", default=0.2, gt=0.0, le=0.5),
-        "timeout_s": ParamSpec("float", doc="SUCCESS anyway after this long, s", default=4.0, gt=0.0),
-    }
 
-    def __init__(
-        self,
-        name: str,
-        *,
-        distance_m: float = 0.3,
-        speed_mps: float = 0.2,
-        timeout_s: float = 4.0,
-        context: BuildContext,
-        remap: Mapping[str, str] | None = None,
-    ) -> None:
-        super().__init__(name, context=context, remap=remap)
-        self.distance_m = distance_m
-        self.speed_mps = abs(speed_mps)
-        self.timeout_s = timeout_s
+    distance_m: float = param("float", doc="distance to step away, m", default=0.3, gt=0.0, le=2.0)
+    speed_mps: float = param("float", doc="stepping speed, m/s", default=0.2, gt=0.0, le=0.5)
+    timeout_s: float = param("float", doc="SUCCESS anyway after this long, s", default=4.0, gt=0.0)
+
+    def __init__(self, name: str, **kwargs: Any) -> None:
+        super().__init__(name, **kwargs)
         self._start = (0.0, 0.0, 0.0)
         self._heading = math.pi
 
@@ -61,7 +54,7 @@ class BackUp(SemExpBehaviour):
         self._start = (self.now_s(), pose.x_m, pose.y_m)
         self._heading = self._escape_heading(pose)
 
-    def _escape_heading(self, pose) -> float:  # type: ignore[no-untyped-def]
+    def _escape_heading(self, pose: Pose2D) -> float:
         """The body-frame heading with the most mapped room (straight back when there is no map)."""
         local_map = self.read("local_map")
         if local_map is None:

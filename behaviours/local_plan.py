@@ -1,47 +1,47 @@
 """LocalPlan: obstacle-aware local planning from the head camera's depth toward the subgoal.
 
-Semantics: every tick it receives (the tree runs it behind a 12 Hz RateLimiter), it reads the latest
-depth frame; every ``map_period_s`` (4 Hz by default) it also adds that frame to the occupancy map
-(``local_map``). Every ``replan_period_s`` it recomputes the shortest path on that map to the subgoal
-(or to the reachable point nearest it, for a subgoal on an object's surface). It then asks the
-depth-only local planner for (v, omega) toward the path point ``lookahead_m`` ahead, or toward the
-subgoal itself on the last leg, and writes the command to ``cmd_twist``. The map knows the way round
-walls seen earlier; the local planner keeps the robot clear of what it sees now.
+Semantics:
+
+- RUNNING: while driving toward the subgoal, or while turning in place to face it on arrival.
+- SUCCESS: within ``arrival_radius_m`` of the subgoal, at the end of the mapped path, as close as the
+  live depth lets it get to the path's end, or when the planner reports arrival on the last leg; in each
+  case only once it faces the subgoal, so that the perception that follows looks at it.
+- FAILURE: no subgoal is set; the planner has reported "blocked" for longer than ``blocked_timeout_s``;
+  or the map has had no path to the subgoal for longer than ``no_path_timeout_s`` (a ``no_path`` event).
+- When it ends, and when it is halted, it commands a zero twist.
+
+Reads ``subgoal`` and ``local_map``; writes ``plan`` (the planner's last PlanResult), ``cmd_twist``,
+``cmd_stamp_s`` and ``local_map`` (the frames added).
+
+Every tick it receives (the tree runs it behind a 12 Hz RateLimiter), it reads the latest depth frame;
+every ``map_period_s`` (4 Hz by default) it also adds that frame to the occupancy map (``local_map``).
+Every ``replan_period_s`` it recomputes the shortest path on that map to the subgoal (or to the reachable
+point nearest it, for a subgoal on an object's surface). It then asks the depth-only local planner for
+(v, omega) toward the path point ``lookahead_m`` ahead, or toward the subgoal itself on the last leg, and
+follows the mapped path by pure pursuit while that arc keeps clear of what the camera sees now. The map
+knows the way round walls seen earlier; the local planner keeps the robot clear of what it sees now.
 
 Why the map updates more slowly than the planner: the map only feeds the path, recomputed once a
 second, and adding a frame costs about as much as a planning step. Nav2's costmaps are updated the same
 way, below the controller's rate (by default 1 Hz for the global costmap, 5 Hz for the local one).
 
-- SUCCESS: within ``arrival_radius_m`` of the subgoal, at the end of the mapped path, or the planner
-  reports arrival on the last leg; in each case after turning in place to face the subgoal, so that
-  the perception that follows looks at it.
-- FAILURE: no subgoal is set; the planner has reported "blocked" for longer than ``blocked_timeout_s``;
-  or the map has had no path for longer than ``no_path_timeout_s``.
-- RUNNING otherwise.
-
-It commands a zero twist when it ends or is preempted.
-
-Example:
-    - type: RateLimiter
-      name: Plan12Hz
-      params: {hz: 12}
-      children:
-        - type: LocalPlan
-          name: LocalPlan
-          params: {arrival_radius_m: 0.7}
+Example (in subtrees/execute.yaml it sits under a 12 Hz ``RateLimiter``):
+    - type: LocalPlan
+      name: LocalPlan
+      params: {arrival_radius_m: 0.7, map_period_s: 0.25}
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 import py_trees
 
 from behaviours.base import SemExpBehaviour
 from behaviours.rate_limiter import CLOCK_TOLERANCE_S, next_due_s
-from behaviours.spec import BuildContext, ParamSpec
+from behaviours.spec import param
 from semexp_bt.core.geometry import world_to_base
 from semexp_bt.core.types import PixelGrid, Pose2D, Twist
 from semexp_bt.nav.local_map import OccupancyMap, lookahead_point
@@ -99,61 +99,41 @@ def arc_is_clear(
 class LocalPlan(SemExpBehaviour):
     READS = ("subgoal", "local_map")
     WRITES = ("plan", "cmd_twist", "cmd_stamp_s", "local_map")
-    PARAMS = {
-        "arrival_radius_m": ParamSpec(
-            "float", doc="SUCCESS within this distance of the subgoal, m", default=0.7, gt=0.0
-        ),
-        "blocked_timeout_s": ParamSpec(
-            "float", doc="FAILURE after being blocked this long, s", default=6.0, gt=0.0
-        ),
-        "replan_period_s": ParamSpec(
-            "float", doc="recompute the path on the occupancy map this often, s", default=1.0, gt=0.0
-        ),
-        "map_period_s": ParamSpec(
-            "float",
-            doc="add a depth frame to the occupancy map at most this often, s (0: every planning cycle)",
-            default=0.25,
-            ge=0.0,
-        ),
-        "lookahead_m": ParamSpec(
-            "float", doc="the local planner aims at the path point this far ahead, m", default=1.2, gt=0.0
-        ),
-        "no_path_timeout_s": ParamSpec(
-            "float",
-            doc="FAILURE when the map has had no path to the subgoal for this long, s",
-            default=4.0,
-            gt=0.0,
-        ),
-    }
+    arrival_radius_m: float = param(
+        "float", doc="SUCCESS within this distance of the subgoal, m", default=0.7, gt=0.0
+    )
+    blocked_timeout_s: float = param(
+        "float", doc="FAILURE after being blocked this long, s", default=6.0, gt=0.0
+    )
+    replan_period_s: float = param(
+        "float", doc="recompute the path on the occupancy map this often, s", default=1.0, gt=0.0
+    )
+    map_period_s: float = param(
+        "float",
+        doc="add a depth frame to the occupancy map at most this often, s (0: every planning cycle)",
+        default=0.25,
+        ge=0.0,
+    )
+    lookahead_m: float = param(
+        "float", doc="the local planner aims at the path point this far ahead, m", default=1.2, gt=0.0
+    )
+    no_path_timeout_s: float = param(
+        "float",
+        doc="FAILURE when the map has had no path to the subgoal for this long, s",
+        default=4.0,
+        gt=0.0,
+    )
 
     #: Pure-pursuit speed along a mapped path, and the clearance its arc must keep from live depth points.
     pursuit_speed_mps = 0.6
+    pursuit_clearance_m = 0.38
     #: On arrival the robot turns until the subgoal is within this bearing (the camera's half view is 0.48 rad).
     facing_tolerance_rad = 0.3
-    pursuit_clearance_m = 0.38
     #: A path this short whose pursuit arc is not clear counts as arrival (nothing closer is safe).
     close_enough_m = 0.6
 
-    def __init__(
-        self,
-        name: str,
-        *,
-        arrival_radius_m: float = 0.7,
-        blocked_timeout_s: float = 6.0,
-        replan_period_s: float = 1.0,
-        map_period_s: float = 0.25,
-        lookahead_m: float = 1.2,
-        no_path_timeout_s: float = 4.0,
-        context: BuildContext,
-        remap: Mapping[str, str] | None = None,
-    ) -> None:
-        super().__init__(name, context=context, remap=remap)
-        self.arrival_radius_m = arrival_radius_m
-        self.blocked_timeout_s = blocked_timeout_s
-        self.replan_period_s = replan_period_s
-        self.map_period_s = map_period_s
-        self.lookahead_m = lookahead_m
-        self.no_path_timeout_s = no_path_timeout_s
+    def __init__(self, name: str, **kwargs: Any) -> None:
+        super().__init__(name, **kwargs)
         self._blocked_since: float | None = None
         self._path: np.ndarray | None = None
         self._planned_at = -math.inf

@@ -1,8 +1,14 @@
 """LowerSubgoalPotential: mark the current subgoal as hard to reach and clear it.
 
-Semantics: scales the exploration potential of the subgoal's memory node by ``factor`` (Eq. 7 style:
-an unreachable subgoal loses its pull), clears ``subgoal`` and returns SUCCESS, so the next decision
-picks something else. SUCCESS with a note when there is no subgoal.
+Semantics (it never returns RUNNING and holds no state, so halting it changes nothing):
+
+- SUCCESS: after scaling the exploration potential of the subgoal's memory node by ``factor`` (Eq. 7
+  style: an unreachable subgoal loses its pull), logging a ``subgoal_demoted`` event and clearing
+  ``subgoal``, so the next decision picks something else.
+- SUCCESS, with a note and nothing changed, when there is no subgoal or its node is no longer in memory.
+  It never fails.
+
+Reads and writes ``subgoal`` and ``memory``.
 
 Example:
     - type: LowerSubgoalPotential
@@ -12,32 +18,19 @@ Example:
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-
 import py_trees
 
 from behaviours.base import SemExpBehaviour
-from behaviours.spec import BuildContext, ParamSpec
+from behaviours.spec import param
 
 
 class LowerSubgoalPotential(SemExpBehaviour):
     READS = ("subgoal", "memory")
     WRITES = ("subgoal", "memory")
-    PARAMS = {
-        "factor": ParamSpec(
-            "float",
-            doc="scale applied to the subgoal node's exploration potential",
-            default=0.2,
-            ge=0.0,
-            le=1.0,
-        ),
-    }
 
-    def __init__(
-        self, name: str, *, factor: float = 0.2, context: BuildContext, remap: Mapping[str, str] | None = None
-    ) -> None:
-        super().__init__(name, context=context, remap=remap)
-        self.factor = factor
+    factor: float = param(
+        "float", doc="scale applied to the subgoal node's exploration potential", default=0.2, ge=0.0, le=1.0
+    )
 
     def update(self) -> py_trees.common.Status:
         subgoal = self.read("subgoal")

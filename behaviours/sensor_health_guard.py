@@ -1,29 +1,35 @@
 """SensorHealthGuard: hold the robot still while a needed sensor is silent or insane; end the mission when
 one stays lost or lies.
 
-Semantics: RUNNING while every sensor the mission needs is healthy. Every tick it checks, on the robot
-clock:
+Semantics: every tick, on the robot clock, it checks
 
 - the clock: it must not run backwards, nor leap more than ``max_clock_step_s`` in one tick;
 - odometry: its stamp (``Robot.sensor_stamps``) no older than ``odometry_deadline_s``, a finite pose, and
-  a pose that moves as the measured twist says: a step more than ``max_jump_m`` / ``max_jump_deg`` off
-  the twist in one tick is a jump, and more than ``max_drift_m`` / ``max_drift_deg`` over
-  ``drift_window_s`` is a drift;
-- the IMU: its stamp no older than ``imu_deadline_s``, finite readings within ``max_gyro_radps`` and
-  ``max_accel_mps2``; needed only when a gait policy walks the robot (it reads the IMU);
-- the camera: its stamp no older than ``camera_deadline_s``, and every ``camera_check_period_s`` a
-  coarse depth sample (:data:`CHECK_GRID`), taken while the robot moves or is told to, whose own stamp
-  is no older than that and whose measured pixels are numbers (at most ``max_nonfinite_fraction`` NaN
-  or inf).
+  a pose that moves as the measured twist says (a step more than ``max_jump_m`` / ``max_jump_deg`` off the
+  twist in one tick is a jump, more than ``max_drift_m`` / ``max_drift_deg`` over ``drift_window_s`` a
+  drift);
+- the IMU, only when a gait policy walks the robot (nothing else reads it): its stamp no older than
+  ``imu_deadline_s``, finite readings within ``max_gyro_radps`` and ``max_accel_mps2``;
+- the camera: its stamp no older than ``camera_deadline_s`` and, every ``camera_check_period_s`` while the
+  robot moves or is told to, a coarse depth sample (:data:`CHECK_GRID`) whose own stamp is no older than
+  that (a frozen driver re-sends old frames while its topic looks alive) and whose measured pixels are
+  numbers (at most ``max_nonfinite_fraction`` NaN or inf).
 
-While a needed sensor is unhealthy, and for ``recover_after_s`` after it is healthy again, it overwrites
-``cmd_twist`` with zero before the gait reads it (the stamp is left alone, so the gait's watchdog still
-sees how old the command is): the robot stands still and the rest of the tree carries on. A sensor
-unhealthy for ``lost_after_s`` stops the robot and ends the mission: ``sensor_lost: <sensor>`` in
-``mission_outcome``, FAILURE. An odometry jump or drift, or a clock jump, ends it at once
-(``sensor_fault: odometry`` / ``sensor_fault: clock``): the memory and the map are kept in the odometry
-frame and the timers on the clock, and nothing can tell which part of them is still right. Each change
-of a sensor's health is logged (``sensor_unhealthy`` with the reason, ``sensor_recovered``).
+- RUNNING, "sensors healthy": every needed sensor (camera and odometry; the IMU with a gait policy) passes.
+- RUNNING, "holding still": a needed sensor fails a check, or passed again less than ``recover_after_s``
+  ago. The guard overwrites ``cmd_twist`` with zero before the gait reads it (the stamp is left alone, so
+  the gait's watchdog still sees the command's age): the robot stands still and the rest of the tree
+  carries on. A ``sensor_unhealthy`` event (with the reason) and a ``sensor_recovered`` event are logged
+  as a sensor's health changes.
+- FAILURE, ``sensor_lost: <sensor>`` in ``mission_outcome``: a needed sensor failed for ``lost_after_s``.
+- FAILURE, ``sensor_fault: odometry`` / ``sensor_fault: clock``: an odometry jump or drift, or a clock
+  jump, at once. The memory and the map are kept in the odometry frame and the timers on the clock, and
+  nothing can tell which part of them is still right.
+- In both failures the robot is stopped and a ``sensor_stop`` event logged.
+- Halted: nothing to undo.
+
+Reads ``cmd_twist`` (whether the robot is told to move); writes ``cmd_twist`` (zero, while holding) and
+``mission_outcome``.
 
 Example:
     - type: SensorHealthGuard
@@ -34,14 +40,14 @@ Example:
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import py_trees
 
 from behaviours.base import SemExpBehaviour
-from behaviours.spec import BuildContext, ParamSpec
+from behaviours.spec import param
 from semexp_bt.core.types import PixelGrid, Pose2D, Twist
 
 #: The depth pixels the guard samples: every 40th row and column (8 x 6 on the Go1's 320 x 240 camera), which
@@ -64,80 +70,49 @@ class _Health:
     healthy_since_s: float = -math.inf
 
 
-def _params() -> dict[str, ParamSpec]:
-    def seconds(doc: str, default: float) -> ParamSpec:
-        return ParamSpec("float", doc=doc, default=default, gt=0.0)
-
-    return {
-        "camera_deadline_s": seconds("the newest camera frame may be this old, s", 0.1),
-        "odometry_deadline_s": seconds("the newest odometry may be this old, s", 0.1),
-        "imu_deadline_s": seconds("the newest IMU reading may be this old, s", 0.1),
-        "camera_check_period_s": seconds("a coarse depth sample is checked this often, s", 0.1),
-        "recover_after_s": seconds("a sensor must be healthy this long before the hold ends, s", 0.5),
-        "lost_after_s": seconds("a needed sensor unhealthy this long ends the mission, s", 5.0),
-        "max_nonfinite_fraction": ParamSpec(
-            "float",
-            doc="largest share of sampled depth pixels that may be NaN or inf",
-            default=0.05,
-            ge=0.0,
-            le=1.0,
-        ),
-        "max_jump_m": seconds("odometry may move this far from what the twist says in one tick, m", 0.1),
-        "max_jump_deg": seconds("or turn this far from it, degrees", 5.0),
-        "drift_window_s": seconds("odometry is compared with the integrated twist over this window, s", 2.0),
-        "max_drift_m": seconds("largest disagreement over the window, m", 0.25),
-        "max_drift_deg": seconds("largest heading disagreement over the window, degrees", 10.0),
-        "max_gyro_radps": seconds("largest plausible angular rate, rad/s", 15.0),
-        "max_accel_mps2": seconds("largest plausible acceleration, m/s^2", 60.0),
-        "max_clock_step_s": seconds("the clock may leap this far in one tick, s", 1.0),
-    }
+def _seconds(doc: str, default: float) -> Any:
+    return param("float", doc=doc, default=default, gt=0.0)
 
 
 class SensorHealthGuard(SemExpBehaviour):
     READS = ("cmd_twist",)
     WRITES = ("cmd_twist", "mission_outcome")
-    PARAMS = _params()
 
-    def __init__(
-        self,
-        name: str,
-        *,
-        camera_deadline_s: float = 0.1,
-        odometry_deadline_s: float = 0.1,
-        imu_deadline_s: float = 0.1,
-        camera_check_period_s: float = 0.1,
-        recover_after_s: float = 0.5,
-        lost_after_s: float = 5.0,
-        max_nonfinite_fraction: float = 0.05,
-        max_jump_m: float = 0.1,
-        max_jump_deg: float = 5.0,
-        drift_window_s: float = 2.0,
-        max_drift_m: float = 0.25,
-        max_drift_deg: float = 10.0,
-        max_gyro_radps: float = 15.0,
-        max_accel_mps2: float = 60.0,
-        max_clock_step_s: float = 1.0,
-        context: BuildContext,
-        remap: Mapping[str, str] | None = None,
-    ) -> None:
-        super().__init__(name, context=context, remap=remap)
+    camera_deadline_s: float = _seconds("the newest camera frame may be this old, s", 0.1)
+    odometry_deadline_s: float = _seconds("the newest odometry may be this old, s", 0.1)
+    imu_deadline_s: float = _seconds("the newest IMU reading may be this old, s", 0.1)
+    camera_check_period_s: float = _seconds(
+        "a coarse depth sample is checked this often while moving, s", 0.1
+    )
+    recover_after_s: float = _seconds("a sensor must be healthy this long before the hold ends, s", 0.5)
+    lost_after_s: float = _seconds("a needed sensor unhealthy this long ends the mission, s", 5.0)
+    max_nonfinite_fraction: float = param(
+        "float",
+        doc="largest share of sampled depth pixels that may be NaN or inf",
+        default=0.05,
+        ge=0.0,
+        le=1.0,
+    )
+    max_jump_m: float = _seconds("odometry may move this far from what the twist says in one tick, m", 0.1)
+    max_jump_deg: float = _seconds("or turn this far from it, degrees", 5.0)
+    drift_window_s: float = _seconds(
+        "odometry is compared with the integrated twist over this window, s", 2.0
+    )
+    max_drift_m: float = _seconds("largest disagreement over the window, m", 0.25)
+    max_drift_deg: float = _seconds("largest heading disagreement over the window, degrees", 10.0)
+    max_gyro_radps: float = _seconds("largest plausible angular rate, rad/s", 15.0)
+    max_accel_mps2: float = _seconds("largest plausible acceleration, m/s^2", 60.0)
+    max_clock_step_s: float = _seconds("the clock may leap this far in one tick, s", 1.0)
+
+    def __init__(self, name: str, **kwargs: Any) -> None:
+        super().__init__(name, **kwargs)
         self.deadline_s = {
-            "camera": camera_deadline_s,
-            "odometry": odometry_deadline_s,
-            "imu": imu_deadline_s,
+            "camera": self.camera_deadline_s,
+            "odometry": self.odometry_deadline_s,
+            "imu": self.imu_deadline_s,
         }
-        self.camera_check_period_s = camera_check_period_s
-        self.recover_after_s = recover_after_s
-        self.lost_after_s = lost_after_s
-        self.max_nonfinite_fraction = max_nonfinite_fraction
-        self.max_jump_m = max_jump_m
-        self.max_jump_rad = math.radians(max_jump_deg)
-        self.drift_window_s = drift_window_s
-        self.max_drift_m = max_drift_m
-        self.max_drift_rad = math.radians(max_drift_deg)
-        self.max_gyro_radps = max_gyro_radps
-        self.max_accel_mps2 = max_accel_mps2
-        self.max_clock_step_s = max_clock_step_s
+        self.max_jump_rad = math.radians(self.max_jump_deg)
+        self.max_drift_rad = math.radians(self.max_drift_deg)
         self.health = {sensor: _Health() for sensor in SENSORS}
         self._last_clock_s: float | None = None
         self._previous: tuple[float, Pose2D] | None = None  # (clock, pose) at the last tick

@@ -2,7 +2,7 @@
 
 A robot that runs all day runs its missions in one process. The soak runs simulated episodes
 (``semexp_bt.app.episode.run_episode``, MuJoCo, the emulator, the embedding scorer) one after another,
-cycling through :data:`DEFAULT_SCENES` with rising seeds, until :data:`DEFAULT_SIM_HOURS` of robot time
+cycling through :data:`DEFAULT_SCENES` with rising seeds, until :data:`DEFAULT_SIM_S` of robot time
 have passed. After each mission (and a garbage collection) it records the process's resident memory,
 the topological memory's size at the mission's end, the mission's tick median and p99, the py_trees
 blackboard's size and the live objects of the kinds a leak would pile up (behaviours, MuJoCo models and
@@ -30,7 +30,8 @@ import py_trees
 from semexp_bt.app.runner import MissionRun
 
 DEFAULT_SCENES = ("office", "living_room", "laboratory")
-DEFAULT_SIM_HOURS = 1.0
+#: Robot time the soak runs for (s): one simulated hour.
+DEFAULT_SIM_S = 3600.0
 #: Resident memory may grow this much (a fraction) after the first mission.
 MAX_RSS_GROWTH = 0.05
 #: The last third's median tick p99 may exceed the first third's by this fraction.
@@ -88,14 +89,14 @@ class MemoryProbe:
 
 def run_soak(
     *,
-    sim_hours: float = DEFAULT_SIM_HOURS,
+    sim_s: float = DEFAULT_SIM_S,
     scenes: Sequence[str] = DEFAULT_SCENES,
     relevance: str = "embedding",
     mission_path: Path | None = None,
     max_missions: int | None = None,
     progress: TextIO | None = sys.stderr,
 ) -> dict[str, Any]:
-    """Run missions back to back until ``sim_hours`` of robot time (or ``max_missions``) and measure.
+    """Run missions back to back until ``sim_s`` of robot time (or ``max_missions``) and measure.
 
     Returns:
         ``missions`` (one entry per mission), ``start`` and ``end`` (the first and last mission's
@@ -110,10 +111,10 @@ def run_soak(
         torch.set_num_threads(1)
     mission = mission_path or default_mission_path()
     missions: list[dict[str, Any]] = []
-    sim_s = 0.0
+    elapsed_s = 0.0
     started = time.perf_counter()
     index = 0
-    while sim_s < sim_hours * 3600.0 and (max_missions is None or index < max_missions):
+    while elapsed_s < sim_s and (max_missions is None or index < max_missions):
         scene, seed = scenes[index % len(scenes)], index // len(scenes)
         probe = MemoryProbe()
         record = run_episode(
@@ -123,14 +124,14 @@ def run_soak(
         )
         del record["events"], record["decisions"]
         gc.collect()
-        sim_s += float(record["sim_time_s"])
+        elapsed_s += float(record["sim_time_s"])
         entry = {
             "mission": index,
             "scene": scene,
             "seed": seed,
             "outcome": record["outcome"],
             "sim_time_s": round(float(record["sim_time_s"]), 1),
-            "sim_total_s": round(sim_s, 1),
+            "sim_total_s": round(elapsed_s, 1),
             "ticks": record["ticks"],
             "tick_median_ms": round(record["tick_wall_ms"]["median"], 3),
             "tick_p99_ms": round(record["tick_wall_ms"]["p99"], 3),
@@ -144,7 +145,7 @@ def run_soak(
         missions.append(entry)
         index += 1
         if progress is not None:
-            print(f"[soak] mission {index}: {scene}/{seed} {entry['outcome']}, sim {sim_s / 60:.1f} min, "
+            print(f"[soak] mission {index}: {scene}/{seed} {entry['outcome']}, sim {elapsed_s / 60:.1f} min, "
                   f"rss {entry['rss_mb']} MB, p99 {entry['tick_p99_ms']} ms, memory {probe.nodes} nodes",
                   file=progress, flush=True)  # fmt: skip
     return summarise(missions)

@@ -14,6 +14,8 @@ import importlib
 import sys
 from collections.abc import Sequence
 
+from semexp_bt.cli.arguments import OneLineArgumentParser
+
 #: subcommand -> (module, one-line help). Modules are listed once, here.
 COMMANDS: dict[str, tuple[str, str]] = {
     "run": ("semexp_bt.cli.run", "run one mission tree on a robot backend"),
@@ -26,7 +28,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="semexp-bt", description=__doc__.splitlines()[0])
+    parser = OneLineArgumentParser(prog="semexp-bt", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
     for name, (module, help_text) in COMMANDS.items():
@@ -45,9 +47,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     name = argv[0]
     module = importlib.import_module(COMMANDS[name][0])
-    sub_parser = argparse.ArgumentParser(prog=f"semexp-bt {name}", description=COMMANDS[name][1])
+    # Usage errors are one line and exit status 2 (semexp_bt.cli.arguments), in every subcommand.
+    sub_parser = OneLineArgumentParser(prog=f"semexp-bt {name}", description=COMMANDS[name][1])
     module.add_arguments(sub_parser)
-    args = sub_parser.parse_args(argv[1:])
+    try:
+        args = sub_parser.parse_args(argv[1:])
+    except SystemExit as stop:  # --help (0) or a bad value (2, its one line already printed)
+        return stop.code if isinstance(stop.code, int) else 2
     return int(module.run(args) or 0)
 
 

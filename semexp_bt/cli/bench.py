@@ -30,6 +30,16 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from semexp_bt.cli.arguments import (
+    non_negative_int,
+    output_file,
+    output_folder,
+    positive_int,
+    positive_seconds,
+    scene_name,
+    seed,
+)
+
 if TYPE_CHECKING:
     from semexp_bt.bench.engine import SweepResult
     from semexp_bt.bench.sweep import SweepSpec
@@ -40,7 +50,7 @@ DOCS_DIR = Path(__file__).resolve().parents[2] / "docs"
 
 def _add_sweep_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
-        "--out", type=Path, required=True, help="output folder (episodes.jsonl, report.md, plots/)"
+        "--out", type=output_folder, required=True, help="output folder (episodes.jsonl, report.md, plots/)"
     )
     parser.add_argument("--fidelity", choices=("kinematic", "dynamic"), default="kinematic")
     parser.add_argument(
@@ -52,7 +62,7 @@ def _add_sweep_options(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--workers",
-        type=int,
+        type=non_negative_int,
         default=max(1, (os.cpu_count() or 1)),
         help="local worker processes (default: CPU count; 0 runs in this process)",
     )
@@ -61,8 +71,12 @@ def _add_sweep_options(parser: argparse.ArgumentParser) -> None:
         default=None,
         help="run on a Ray cluster ('auto' or ray://host:10001) instead; needs 'pip install ray'",
     )
-    parser.add_argument("--timeout-s", type=float, default=None, help="wall-time limit per episode (s)")
-    parser.add_argument("--max-sim-s", type=float, default=None, help="cap on simulated time per episode (s)")
+    parser.add_argument(
+        "--timeout-s", type=positive_seconds, default=None, help="wall-time limit per episode (s)"
+    )
+    parser.add_argument(
+        "--max-sim-s", type=positive_seconds, default=None, help="cap on simulated time per episode (s)"
+    )
     parser.add_argument(
         "--mission", type=Path, default=None, help="mission tree (default: trees/object_search.yaml)"
     )
@@ -78,21 +92,21 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     sub.required = True
     core = sub.add_parser("core", help="latency of arbitration, memory update and decision")
-    core.add_argument("--json", type=Path, default=None, help="write the figures here as JSON")
-    core.add_argument("--seed", type=int, default=0)
+    core.add_argument("--json", type=output_file, default=None, help="write the figures here as JSON")
+    core.add_argument("--seed", type=seed, default=0)
     core.add_argument("--quick", action="store_true", help="fewer repeats, no 100k-node row (smoke test)")
 
     tree = sub.add_parser(
         "tree", help="per-tick wall time of the mission tree alone (no physics, no rendering)"
     )
-    tree.add_argument("--json", type=Path, default=None, help="write the figures here as JSON")
-    tree.add_argument("--ticks", type=int, default=20_000)
-    tree.add_argument("--seed", type=int, default=0)
+    tree.add_argument("--json", type=output_file, default=None, help="write the figures here as JSON")
+    tree.add_argument("--ticks", type=positive_int, default=20_000)
+    tree.add_argument("--seed", type=seed, default=0)
 
     gait = sub.add_parser("gait", help="RL gait vs reference trot: tracking, falls, pushes, CoT, inference")
-    gait.add_argument("--json", type=Path, default=None, help="write the figures here as JSON")
-    gait.add_argument("--seeds", type=int, default=10, help="seeds (10 simulated minutes each)")
-    gait.add_argument("--seed", type=int, default=0)
+    gait.add_argument("--json", type=output_file, default=None, help="write the figures here as JSON")
+    gait.add_argument("--seeds", type=positive_int, default=10, help="seeds (10 simulated minutes each)")
+    gait.add_argument("--seed", type=seed, default=0)
     gait.add_argument("--checkpoint", type=Path, default=None, help="default: robots/gait_checkpoints")
     gait.add_argument("--quick", action="store_true", help="2 seeds x 30 s, small grid (smoke test)")
 
@@ -106,7 +120,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     missions.add_argument(
         "--trajectories",
-        type=int,
+        type=non_negative_int,
         default=1,
         help="keep trajectory + memory of the first N seeds per (scene, strategy) for plots",
     )
@@ -114,19 +128,30 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     _add_sweep_options(missions)
 
     paper = sub.add_parser("paper", help="the paper's protocol: Tables I-V into DIR and docs/results.md")
-    paper.add_argument("--trials", type=int, default=20, help="trials per scene for Table III (paper: 20)")
     paper.add_argument(
-        "--trials-evidence", type=int, default=None, help="trials per sim scene, Table I baselines"
+        "--trials", type=positive_int, default=20, help="trials per scene for Table III (paper: 20)"
     )
     paper.add_argument(
-        "--trials-decision", type=int, default=None, help="trials per sim scene, Table II baselines"
+        "--trials-evidence",
+        type=non_negative_int,
+        default=None,
+        help="trials per sim scene, Table I baselines",
     )
     paper.add_argument(
-        "--trials-ablation", type=int, default=None, help="trials per sim scene, Table IV ablations"
+        "--trials-decision",
+        type=non_negative_int,
+        default=None,
+        help="trials per sim scene, Table II baselines",
+    )
+    paper.add_argument(
+        "--trials-ablation",
+        type=non_negative_int,
+        default=None,
+        help="trials per sim scene, Table IV ablations",
     )
     paper.add_argument(
         "--trials-reference",
-        type=int,
+        type=non_negative_int,
         default=None,
         help="trials per scene for the nearest-frontier and oracle references",
     )
@@ -152,13 +177,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     compare.add_argument("before", type=Path, help="the first sweep's output folder")
     compare.add_argument("after", type=Path, help="the second sweep's output folder")
-    compare.add_argument("--json", type=Path, default=None, help="write the comparison here as JSON")
+    compare.add_argument("--json", type=output_file, default=None, help="write the comparison here as JSON")
 
     faults = sub.add_parser("faults", help="every fault class x scenes x seeds: safe stops, unsafe commands")
-    faults.add_argument("--out", type=Path, required=True, help="output folder (one sweep folder per case)")
-    faults.add_argument("--json", type=Path, default=None, help="write the table here as JSON")
     faults.add_argument(
-        "--scenes", default=None, help="comma-separated scenes (default: the benchmark's three)"
+        "--out", type=output_folder, required=True, help="output folder (a sweep folder per case)"
+    )
+    faults.add_argument("--json", type=output_file, default=None, help="write the table here as JSON")
+    faults.add_argument(
+        "--scenes",
+        type=_scene_list,
+        default=None,
+        help="comma-separated scenes (default: the benchmark's three)",
     )
     faults.add_argument("--seeds", default=None, help="e.g. 0-1 (default: the benchmark's)")
     faults.add_argument(
@@ -166,17 +196,27 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     faults.add_argument("--fidelity", choices=("kinematic", "dynamic"), default="kinematic")
     faults.add_argument("--relevance", choices=("embedding", "lexical"), default="embedding")
-    faults.add_argument("--max-sim-s", type=float, default=None, help="cap per episode (s; default 240)")
-    faults.add_argument("--workers", type=int, default=max(1, (os.cpu_count() or 1)), help="worker processes")
-    faults.add_argument("--timeout-s", type=float, default=None, help="wall-time limit per episode (s)")
+    faults.add_argument(
+        "--max-sim-s", type=positive_seconds, default=None, help="cap per episode (s; default 240)"
+    )
+    faults.add_argument(
+        "--workers", type=non_negative_int, default=max(1, (os.cpu_count() or 1)), help="worker processes"
+    )
+    faults.add_argument(
+        "--timeout-s", type=positive_seconds, default=None, help="wall-time limit per episode (s)"
+    )
     faults.add_argument("--quiet", action="store_true", help="no progress lines")
 
     soak = sub.add_parser("soak", help="back-to-back missions for a simulated hour: memory and tick p99")
-    soak.add_argument("--json", type=Path, default=None, help="write the figures here as JSON")
-    soak.add_argument("--sim-hours", type=float, default=None, help="robot time to run (default 1 h)")
-    soak.add_argument("--scenes", default=None, help="comma-separated scenes (default: the soak's three)")
+    soak.add_argument("--json", type=output_file, default=None, help="write the figures here as JSON")
+    soak.add_argument(
+        "--sim-s", type=positive_seconds, default=None, help="robot time to run (s; default 3600)"
+    )
+    soak.add_argument(
+        "--scenes", type=_scene_list, default=None, help="comma-separated scenes (default: the soak's three)"
+    )
     soak.add_argument("--relevance", choices=("embedding", "lexical"), default="embedding")
-    soak.add_argument("--max-missions", type=int, default=None, help="stop after this many missions")
+    soak.add_argument("--max-missions", type=positive_int, default=None, help="stop after this many missions")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -215,6 +255,12 @@ def run(args: argparse.Namespace) -> int:
 
     from semexp_bt.bench.sweep import HarnessError
 
+    if (
+        args.kind in ("missions", "paper")
+        and args.mission is not None
+        and not _mission_is_valid(args.mission)
+    ):
+        return 2
     try:
         if args.kind == "missions":
             return _missions(args)
@@ -234,6 +280,16 @@ def run(args: argparse.Namespace) -> int:
     return 2
 
 
+def _mission_is_valid(path: Path) -> bool:
+    """Check ``--mission`` before any episode starts; print its problems (one line each) when it has any."""
+    from trees.loader import validate_mission
+
+    errors = validate_mission(path)
+    for error in errors:
+        print(error, file=sys.stderr)
+    return not errors
+
+
 def _spec_options(args: argparse.Namespace) -> dict[str, Any]:
     relevance = args.relevance or ("lexical" if getattr(args, "smoke", False) else "embedding")
     options: dict[str, Any] = {"fidelity": args.fidelity, "relevance": relevance}
@@ -244,6 +300,11 @@ def _spec_options(args: argparse.Namespace) -> dict[str, Any]:
     if args.mission is not None:
         options["mission_path"] = args.mission
     return options
+
+
+def _scene_list(text: str) -> tuple[str, ...]:
+    """Comma-separated scenes of the catalogue, each checked."""
+    return tuple(scene_name(name) for name in _split(text))
 
 
 def _split(text: str) -> tuple[str, ...]:
@@ -366,7 +427,7 @@ def _faults(args: argparse.Namespace) -> int:
         raise HarnessError(f"unknown fault cases {unknown}; known: {sorted(CASES_BY_NAME)}")
     chosen: dict[str, Any] = {"cases": cases}
     if args.scenes is not None:
-        chosen["scenes"] = _split(args.scenes)
+        chosen["scenes"] = args.scenes
     if args.seeds is not None:
         chosen["seeds"] = parse_seeds(args.seeds)
     if args.max_sim_s is not None:
@@ -387,10 +448,10 @@ def _soak(args: argparse.Namespace) -> int:
     from semexp_bt.core.durable import write_json
 
     chosen: dict[str, Any] = {"max_missions": args.max_missions}
-    if args.sim_hours is not None:
-        chosen["sim_hours"] = args.sim_hours
+    if args.sim_s is not None:
+        chosen["sim_s"] = args.sim_s
     if args.scenes is not None:
-        chosen["scenes"] = _split(args.scenes)
+        chosen["scenes"] = args.scenes
     result = run_soak(relevance=args.relevance, **chosen)
     result["machine"] = _machine()
     result["command"] = "semexp-bt " + shlex.join(sys.argv[1:])

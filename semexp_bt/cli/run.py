@@ -13,7 +13,9 @@ from pathlib import Path
 from typing import Any
 
 from semexp_bt.app.components import PLANNERS, RELEVANCE_SCORERS, ROBOT_BACKENDS
+from semexp_bt.cli.arguments import output_file, print_error, scene_name, seed, strategy_name
 from semexp_bt.core.durable import write_json
+from trees.loader import MissionLoadError
 
 #: Backends whose missions run in a simulated scene (they need ``--scene``).
 SIMULATED_BACKENDS = ("mujoco",)
@@ -24,9 +26,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--backend", choices=sorted(ROBOT_BACKENDS), default="mujoco", help="robot backend (default: mujoco)"
     )
-    parser.add_argument("--scene", default=None, help="scene name (see `semexp-bt scene list`); mujoco only")
     parser.add_argument(
-        "--seed", type=int, default=0, help="seed for layout, start pose and perception noise"
+        "--scene", type=scene_name, default=None, help="scene name (see `semexp-bt scene list`); mujoco only"
+    )
+    parser.add_argument(
+        "--seed", type=seed, default=0, help="seed for layout, start pose and perception noise (>= 0)"
     )
     parser.add_argument(
         "--instruction", default=None, help="override the instruction, e.g. 'find the bucket shelf'"
@@ -37,7 +41,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=None,
         help="robot fidelity (default: the mission's setting, else kinematic)",
     )
-    parser.add_argument("--strategy", default="ours", help="strategy (see semexp_bt/app/strategies.yaml)")
+    parser.add_argument(
+        "--strategy", type=strategy_name, default="ours", help="strategy (see semexp_bt/app/strategies.yaml)"
+    )
     parser.add_argument(
         "--relevance",
         choices=sorted(RELEVANCE_SCORERS),
@@ -48,8 +54,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--config", type=Path, default=None, help="YAML of config overrides (the last layer; docs/config.md)"
     )
-    parser.add_argument("--json", type=Path, default=None, help="write the episode record here")
-    parser.add_argument("--record", type=Path, default=None, help="write the per-tick record (JSONL) here")
+    parser.add_argument("--json", type=output_file, default=None, help="write the episode record here")
+    parser.add_argument(
+        "--record", type=output_file, default=None, help="write the per-tick record (JSONL) here"
+    )
     parser.add_argument("--display", action="store_true", help="show the tick-level display")
     parser.add_argument(
         "--faults",
@@ -61,16 +69,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     os.environ.setdefault("MUJOCO_GL", "egl")
-    if not args.mission.is_file():
-        print(f"error: mission file {args.mission} does not exist", file=sys.stderr)
-        return 2
     if args.backend in SIMULATED_BACKENDS and args.scene is None:
-        print(f"error: --scene is required with --backend {args.backend}", file=sys.stderr)
+        print_error(f"--scene is required with --backend {args.backend}")
         return 2
     try:
         record = _run(args)
-    except ValueError as exc:  # MissionLoadError, ConfigError, InvalidInputError, unknown scene or strategy
-        print(f"error: {exc}", file=sys.stderr)
+    except MissionLoadError as exc:  # the mission file (missing, not YAML, invalid): one line per problem
+        for error in exc.errors:
+            print(error, file=sys.stderr)
+        return 2
+    except ValueError as exc:  # ConfigError, InvalidInputError
+        print_error(str(exc))
         return 2
     if args.json is not None:
         write_json(args.json, record)

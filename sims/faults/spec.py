@@ -25,12 +25,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
-import yaml
-
 from semexp_bt.core.config import ConfigError, config_from_dict
-
-#: A fault file larger than this is refused before it is parsed (a fault list is a few lines).
-MAX_FAULT_FILE_BYTES = 1 << 20
+from trees.yaml_source import YamlSourceError, load_yaml_file
 
 PerceptionSourceName = Literal["vlm", "detector", "both"]
 
@@ -315,33 +311,18 @@ def parse_faults(data: Any, *, where: str) -> tuple[FaultSpec, ...]:
 def load_faults_file(path: str | Path) -> tuple[FaultSpec, ...]:
     """Read a fault file: a mapping with the one key ``faults`` holding a fault list.
 
+    The file is read by the product's one safe YAML reader (``trees.yaml_source``: a regular file, small,
+    UTF-8, plain tags, bounded nesting and aliases, no duplicate keys).
+
     Raises:
-        FaultSpecError: naming the file (and line, for YAML errors) on anything unusable: a missing,
-            unreadable, oversized or non-UTF-8 file, invalid or too deeply nested YAML, another shape,
-            or a bad entry.
+        FaultSpecError: one line naming the file (and the line and column, for YAML problems) when it
+            cannot be read, is refused by the reader, has another shape, or holds a bad entry.
     """
-    path = Path(path)
     where = str(path)
     try:
-        if not path.is_file():
-            raise FaultSpecError(f"{where}: fault file not found (or not a regular file)")
-        if path.stat().st_size > MAX_FAULT_FILE_BYTES:
-            raise FaultSpecError(f"{where}: fault file larger than {MAX_FAULT_FILE_BYTES} bytes")
-        text = path.read_bytes().decode("utf-8")
-    except OSError as exc:
-        raise FaultSpecError(f"{where}: cannot read fault file: {exc.strerror}") from None
-    except UnicodeDecodeError as exc:
-        raise FaultSpecError(f"{where}: not UTF-8 text (byte {exc.start})") from None
-    try:
-        data = yaml.safe_load(text)
-    except yaml.MarkedYAMLError as exc:
-        mark = exc.problem_mark or exc.context_mark
-        line = f":{mark.line + 1}:{mark.column + 1}" if mark is not None else ""
-        raise FaultSpecError(f"{where}{line}: invalid YAML: {exc.problem or exc}") from None
-    except yaml.YAMLError as exc:
-        raise FaultSpecError(f"{where}: invalid YAML: {exc}") from None
-    except RecursionError:
-        raise FaultSpecError(f"{where}: YAML nested too deeply") from None
+        data = load_yaml_file(path)
+    except YamlSourceError as exc:
+        raise FaultSpecError(f"fault file {exc}") from None
     if not isinstance(data, Mapping) or set(data) != {"faults"}:
         raise FaultSpecError(
             f"{where}: a fault file is a mapping with the one key 'faults' (a list of faults)"
