@@ -16,9 +16,10 @@ own clock, so a clock-jump fault does not move the schedule.
 - ``depth_corrupt``: rectangular patches of each frame's depth read 0 or NaN.
 - ``odometry_drop`` / ``imu_drop``: the pose and twist / the IMU reading stop updating, and their stamps
   stay at the fault's start.
-- ``odometry_jump`` / ``odometry_drift``: the odometry frame moves against the world (a rigid offset
-  about where the robot stood when the fault began) and keeps the offset after the fault ends; frames
-  carry poses in the same, offset, frame.
+- ``odometry_jump``: the odometry frame moves once against the world (a rigid offset about where the
+  robot stood when the fault began) and keeps the offset; frames carry poses in the same frame.
+- ``odometry_drift``: dead reckoning goes wrong: the true motion is integrated turned by a growing heading
+  error, plus a slip, for the fault's duration; the error stays after it (nothing corrects odometry).
 - ``imu_spike``: readings carry large spurious rates and accelerations.
 - ``commands_ignored``: twists, joint targets and stops are dropped; the robot's own watchdog stops the
   base ``robot_watchdog_s`` after the fault began.
@@ -86,7 +87,8 @@ class FaultyRobot(Robot):
         self._t0 = inner.now_s()
         self._rng = np.random.default_rng([self._seed, 1])
         self._frames: dict[str, Observation] = {}  # "full" / "depth" -> the raw frame last handed out
-        self._pivots: dict[int, Pose2D] = {}  # odometry fault index -> true pose when it began
+        self._pivots: dict[int, Pose2D] = {}  # odometry jump index -> true pose when it began
+        self._drift: dict[int, tuple[float, Pose2D, Pose2D]] = {}  # drift index -> (elapsed, true, reported)
         self._last_pose: Pose2D | None = None
         self._last_twist: Twist | None = None
         self._last_imu: ImuReading | None = None
@@ -135,26 +137,45 @@ class FaultyRobot(Robot):
     # ------------------------------------------------------------------ odometry
 
     def _odometry_offset(self) -> npt.NDArray[np.float64] | None:
-        """The odometry frame's offset against the world (3x3), or None when no odometry fault began."""
+        """The odometry frame's offset against the world now (3x3), or None when no odometry fault began."""
         elapsed = self.elapsed_s()
         offset: npt.NDArray[np.float64] | None = None
+        true = None
         for index, fault in enumerate(self.faults):
             if fault.fault_class not in ("odometry_jump", "odometry_drift") or elapsed < fault.start_s:
                 continue
-            if index not in self._pivots:
-                self._pivots[index] = self.inner.base_pose()
-            pivot = self._pivots[index]
+            true = true or self.inner.base_pose()
             params = fault.params
             if isinstance(params, OdometryJumpParams):
+                pivot = self._pivots.setdefault(index, true)
                 step = _planar(params.dx_m, params.dy_m, math.radians(params.dyaw_deg), pivot)
             else:
                 assert isinstance(params, OdometryDriftParams)
-                tau = min(elapsed, fault.end_s) - fault.start_s
-                step = _planar(
-                    params.vx_mps * tau, params.vy_mps * tau, math.radians(params.yaw_degps * tau), pivot
-                )
+                step = self._drift_offset(index, fault, params, true, elapsed)
             offset = step if offset is None else step @ offset
         return offset
+
+    def _drift_offset(
+        self, index: int, fault: FaultSpec, params: OdometryDriftParams, true: Pose2D, elapsed: float
+    ) -> npt.NDArray[np.float64]:
+        """Dead reckoning with a drifting heading and a slip: the odometry integrates the true motion turned
+        by the heading error, plus the slip, so the pose still agrees with the measured twist up to the
+        slip (as a gyro bias would leave it)."""
+        start, end = fault.start_s, fault.end_s
+        t_prev, true_prev, reported = self._drift.get(index, (start, true, true))
+        tau_prev, tau = min(t_prev, end) - start, min(elapsed, end) - start
+        heading = math.radians(params.yaw_degps) * tau
+        c, s = math.cos(heading), math.sin(heading)
+        dx, dy = true.x_m - true_prev.x_m, true.y_m - true_prev.y_m
+        reported = Pose2D(
+            reported.x_m + c * dx - s * dy + params.vx_mps * (tau - tau_prev),
+            reported.y_m + s * dx + c * dy + params.vy_mps * (tau - tau_prev),
+            math.remainder(true.yaw_rad + heading, math.tau),
+        )
+        self._drift[index] = (elapsed, true, reported)
+        origin = Pose2D(0.0, 0.0, 0.0)
+        as_true = _planar(true.x_m, true.y_m, true.yaw_rad, origin)
+        return _planar(reported.x_m, reported.y_m, reported.yaw_rad, origin) @ np.linalg.inv(as_true)
 
     def _offset_pose(self, pose: Pose2D, offset: npt.NDArray[np.float64] | None) -> Pose2D:
         if offset is None:
