@@ -86,7 +86,9 @@ def browser_context(tmp_path: Path) -> Iterator[tuple[Any, list[str]]]:
 
 
 def page_statuses(page: Any) -> dict[str, str]:
-    return page.eval_on_selector_all(".node", "els => Object.fromEntries(els.map(e => [e.dataset.name, e.dataset.status]))")
+    return page.eval_on_selector_all(
+        ".node", "els => Object.fromEntries(els.map(e => [e.dataset.name, e.dataset.status]))"
+    )
 
 
 def first_tick(lines: list[str], name: str, status: str) -> int:
@@ -166,7 +168,9 @@ def test_the_live_view_follows_a_running_mission(browser_context: tuple[Any, lis
         checked.wait(timeout=RERUN_START_S + 60.0)
 
     recorder = TickRecorder(path=None, display=False)
-    view = ViewObserver(ViewOptions(live=True, announce=urls.append, after_mission=hold_open), recorder=recorder)
+    view = ViewObserver(
+        ViewOptions(live=True, announce=urls.append, after_mission=hold_open), recorder=recorder
+    )
     mission = threading.Thread(target=lambda: seen.update(result=run_null_mission([recorder, view])))
     mission.start()
     try:

@@ -129,7 +129,9 @@ def run_null_mission(observers: list[Any]) -> MissionResult:
     )
 
 
-def record_view(directory: Path, sink: ListSink, **option_overrides: Any) -> tuple[MissionResult, ViewObserver]:
+def record_view(
+    directory: Path, sink: ListSink, **option_overrides: Any
+) -> tuple[MissionResult, ViewObserver]:
     recorder = TickRecorder(path=None, display=False)
     options = ViewOptions(record_dir=directory, **option_overrides)
     view = ViewObserver(options, recorder=recorder, sink_factory=lambda **_: sink)
@@ -240,7 +242,9 @@ def test_a_broken_recording_is_named_by_file_and_line(tmp_path: Path) -> None:
         open_recording(directory)
 
 
-def test_view_and_export_commands_report_a_bad_directory(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_view_and_export_commands_report_a_bad_directory(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     assert main(["view", str(tmp_path / "nothing"), "--no-browser"]) == 2
     assert "nothing: not a directory" in capsys.readouterr().err
     assert main(["export", str(tmp_path), "--mcap", str(tmp_path / "out.mcap")]) == 2
@@ -258,12 +262,17 @@ def _get(url: str) -> tuple[int, dict[str, str], bytes]:
 
 def test_the_page_server_answers_the_session_and_the_ticks_after_one() -> None:
     lines = [json.dumps({"tick": t, "stamp_s": 0.02 * t, "nodes": {}, "writes": []}) for t in range(1, 8)]
-    feed = TickFeed({"mode": "live", "title": "t", "tree": {"root": "R", "nodes": []}, "world": None}, lines[:5])
+    feed = TickFeed(
+        {"mode": "live", "title": "t", "tree": {"root": "R", "nodes": []}, "world": None}, lines[:5]
+    )
     server = ViewServer(feed)
     try:
         status, headers, body = _get(server.url)
         assert status == 200 and b"viewer.js" in body
-        assert headers["Content-Security-Policy"] == CONTENT_SECURITY_POLICY and "connect-src 'self'" in CONTENT_SECURITY_POLICY
+        assert (
+            headers["Content-Security-Policy"] == CONTENT_SECURITY_POLICY
+            and "connect-src 'self'" in CONTENT_SECURITY_POLICY
+        )
         assert _get(server.url + "static/viewer.js")[0] == 200
         assert _get(server.url + "static/..%2F..%2Fobserver.py")[0] == 404
         session = json.loads(_get(server.url + "api/session")[2])
@@ -322,7 +331,9 @@ def test_the_explanation_gives_eq9s_terms_and_their_product_is_the_utility() -> 
     }
     text = explain_decision(entry, config)
     print(text)
-    rows = [line.split("|")[1:-1] for line in text.splitlines() if line.startswith("| ") and "node" not in line]
+    rows = [
+        line.split("|")[1:-1] for line in text.splitlines() if line.startswith("| ") and "node" not in line
+    ]
     assert rows[0][0].strip() == "**★**" and int(rows[0][1]) == entry["selected_node_id"] == 1
     for row in rows:
         s_a, c_b, p_e, decay, u = (float(v) for v in row[7:12])

@@ -75,7 +75,9 @@ def written_at(tick_lines: list[str], key: str) -> list[int]:
     return out
 
 
-def test_the_rerun_recording_holds_each_entity_at_the_expected_ticks(recorded: tuple[Path, dict[str, Any]]) -> None:
+def test_the_rerun_recording_holds_each_entity_at_the_expected_ticks(
+    recorded: tuple[Path, dict[str, Any]],
+) -> None:
     directory, record = recorded
     saved = open_recording(directory)
     assert saved.complete and saved.world_path is not None
@@ -127,7 +129,10 @@ def test_the_mcap_export_has_each_channel_and_decodes_as_ros2(
         assert reader.get_header().profile == "ros2"
         summary = reader.get_summary()
         assert summary is not None
-        channels = {c.topic: (summary.schemas[c.schema_id].name, c.message_encoding) for c in summary.channels.values()}
+        channels = {
+            c.topic: (summary.schemas[c.schema_id].name, c.message_encoding)
+            for c in summary.channels.values()
+        }
         assert channels == {topic: (kind, "cdr") for topic, kind in TOPICS.items()}
         counts: Counter[str] = Counter()
         last_stamp: dict[str, int] = {}
@@ -151,7 +156,9 @@ def test_the_mcap_export_has_each_channel_and_decodes_as_ros2(
     }
     assert dict(counts) == expected
     image = first["/camera/image"]
-    assert (image.encoding, image.width * 3) == ("rgb8", image.step) and len(image.data) == image.step * image.height
+    assert (image.encoding, image.width * 3) == ("rgb8", image.step) and len(
+        image.data
+    ) == image.step * image.height
     grid = first["/map"]
     assert len(grid.data) == grid.info.width * grid.info.height and set(grid.data) <= {-1, 0, 100}
     markers = first["/memory/markers"].markers

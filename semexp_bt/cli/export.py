@@ -9,7 +9,9 @@ from pathlib import Path
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("recording", type=Path, help="a directory written by `semexp-bt run --view-record DIR`")
+    parser.add_argument(
+        "recording", type=Path, help="a directory written by `semexp-bt run --view-record DIR`"
+    )
     parser.add_argument("--mcap", type=Path, required=True, metavar="OUT.mcap", help="the MCAP file to write")
 
 
@@ -24,7 +26,9 @@ def run(args: argparse.Namespace) -> int:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     except ModuleNotFoundError as exc:
-        print(f"error: the export needs the viewer extra (pip install -e '.[viewer]'): {exc}", file=sys.stderr)
+        print(
+            f"error: the export needs the viewer extra (pip install -e '.[viewer]'): {exc}", file=sys.stderr
+        )
         return 2
     total = sum(summary.messages.values())
     print(f"{summary.path}: {total} messages")

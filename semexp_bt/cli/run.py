@@ -53,7 +53,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--record", type=Path, default=None, help="write the per-tick record (JSONL) here")
     parser.add_argument("--display", action="store_true", help="show the tick-level display")
     parser.add_argument(
-        "--view", action="store_true", help="serve the live browser view (tree, world, memory; docs/viewer.md)"
+        "--view",
+        action="store_true",
+        help="serve the live browser view (tree, world, memory; docs/viewer.md)",
     )
     parser.add_argument(
         "--view-record", type=Path, default=None, metavar="DIR", help="save the view (`semexp-bt view DIR`)"
@@ -134,7 +136,12 @@ def _view_options(args: argparse.Namespace) -> Any:
         port=args.view_port,
         open_browser=args.view,
         title=f"{args.scene} seed {args.seed}: {args.mission.name}",
-        mission={"scene": args.scene, "seed": args.seed, "strategy": args.strategy, "mission": str(args.mission)},
+        mission={
+            "scene": args.scene,
+            "seed": args.seed,
+            "strategy": args.strategy,
+            "mission": str(args.mission),
+        },
         announce=announce,
         after_mission=keep_open,
     )

@@ -10,7 +10,9 @@ from pathlib import Path
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("recording", type=Path, help="a directory written by `semexp-bt run --view-record DIR`")
+    parser.add_argument(
+        "recording", type=Path, help="a directory written by `semexp-bt run --view-record DIR`"
+    )
     parser.add_argument("--port", type=int, default=0, help="the page's port (default: a free one)")
     parser.add_argument("--host", default="127.0.0.1", help="the interface to serve on (default: loopback)")
     parser.add_argument("--no-browser", action="store_true", help="print the URL only; open no browser")
@@ -29,7 +31,9 @@ def run(args: argparse.Namespace) -> int:
         print(f"error: cannot serve on {args.host}:{args.port}: {exc}", file=sys.stderr)
         return 2
     if not recording.complete:
-        print("warning: this recording was cut short (the mission did not end while recording)", file=sys.stderr)
+        print(
+            "warning: this recording was cut short (the mission did not end while recording)", file=sys.stderr
+        )
     if recording.world_path is None:
         print("note: no world recording in this directory; the page shows the tree only", file=sys.stderr)
     print(f"view: {server.url}  ({len(recording.tick_lines)} ticks; Ctrl-C to stop)", flush=True)

@@ -214,4 +214,3 @@ class FrameCapture:
             fields["events"] = tuple(services.events[self._events :])
             self._events = len(services.events)
         return WorldFrame(tick=run.tick, stamp_s=now, **fields)
-

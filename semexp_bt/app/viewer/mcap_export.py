@@ -174,7 +174,9 @@ def _marker(ns_ns: int, namespace: str, marker_id: int, kind: int, **fields: Any
     return marker
 
 
-def _memory_markers(stamp_ns: int, nodes: _Row | None, edges: _Row | None, subgoal: _Row | None) -> dict[str, Any]:
+def _memory_markers(
+    stamp_ns: int, nodes: _Row | None, edges: _Row | None, subgoal: _Row | None
+) -> dict[str, Any]:
     """The memory as markers: DELETEALL, then a sphere (size from C_f, colour from P_explore) and a label
     per node, the edges as one line list, and the subgoal."""
     markers = [_marker(stamp_ns, "", 0, _SPHERE, action=_DELETEALL)]
@@ -195,7 +197,10 @@ def _memory_markers(stamp_ns: int, nodes: _Row | None, edges: _Row | None, subgo
                 _marker(stamp_ns, "memory/nodes", int(ids[i]), _SPHERE, pose=pose,
                         scale=_vector(diameter, diameter, diameter), color=_rgba(colour))
             )  # fmt: skip
-            text_pose = {"position": _vector(position[0], position[1], position[2] + 0.35), "orientation": pose["orientation"]}
+            text_pose = {
+                "position": _vector(position[0], position[1], position[2] + 0.35),
+                "orientation": pose["orientation"],
+            }
             markers.append(
                 _marker(stamp_ns, "memory/labels", int(ids[i]), _TEXT, pose=text_pose, scale=_vector(0.0, 0.0, 0.15),
                         text=f"{ids[i]} {labels[i]} C_f {confidence[i]:.2f} P {potential[i]:.2f}")
@@ -238,91 +243,122 @@ def _messages(world: dict[str, list[_Row]]) -> Iterator[tuple[str, int, dict[str
         rotation = row.values.get("Transform3D:quaternion", [[0.0, 0.0, 0.0, 1.0]])[0]
         pose = {"position": _vector(*translation), "orientation": _quaternion(rotation)}
         twist = twist_at.get(row.tick, [0.0, 0.0, 0.0])
-        yield "/odom", row.stamp_ns, {
-            "header": _header(row.stamp_ns, MAP_FRAME),
-            "child_frame_id": BASE_FRAME,
-            "pose": {"pose": pose, "covariance": [0.0] * 36},
-            "twist": {"twist": _twist(twist), "covariance": [0.0] * 36},
-        }
-        yield "/tf", row.stamp_ns, {
-            "transforms": [
-                {
-                    "header": _header(row.stamp_ns, MAP_FRAME),
-                    "child_frame_id": BASE_FRAME,
-                    "transform": {"translation": _vector(*translation), "rotation": _quaternion(rotation)},
-                }
-            ]
-        }
+        yield (
+            "/odom",
+            row.stamp_ns,
+            {
+                "header": _header(row.stamp_ns, MAP_FRAME),
+                "child_frame_id": BASE_FRAME,
+                "pose": {"pose": pose, "covariance": [0.0] * 36},
+                "twist": {"twist": _twist(twist), "covariance": [0.0] * 36},
+            },
+        )
+        yield (
+            "/tf",
+            row.stamp_ns,
+            {
+                "transforms": [
+                    {
+                        "header": _header(row.stamp_ns, MAP_FRAME),
+                        "child_frame_id": BASE_FRAME,
+                        "transform": {
+                            "translation": _vector(*translation),
+                            "rotation": _quaternion(rotation),
+                        },
+                    }
+                ]
+            },
+        )
     for row in world.get(entities.COMMAND, []):
         yield "/cmd_vel", row.stamp_ns, _twist(row.values["Scalars:scalars"])
     for row in world.get(entities.CAMERA, []):
         matrix = np.array(row.values["Transform3D:mat3x3"][0], dtype=float).reshape(3, 3, order="F")
         translation = row.values["Transform3D:translation"][0]
-        yield "/tf", row.stamp_ns, {
-            "transforms": [
-                {
-                    "header": _header(row.stamp_ns, MAP_FRAME),
-                    "child_frame_id": CAMERA_FRAME,
-                    "transform": {
-                        "translation": _vector(*translation),
-                        "rotation": _quaternion(_rotation_to_quaternion(matrix)),
-                    },
-                }
-            ]
-        }
+        yield (
+            "/tf",
+            row.stamp_ns,
+            {
+                "transforms": [
+                    {
+                        "header": _header(row.stamp_ns, MAP_FRAME),
+                        "child_frame_id": CAMERA_FRAME,
+                        "transform": {
+                            "translation": _vector(*translation),
+                            "rotation": _quaternion(_rotation_to_quaternion(matrix)),
+                        },
+                    }
+                ]
+            },
+        )
     for row in world.get(entities.CAMERA_IMAGE, []):
         k = np.array(row.values["Pinhole:image_from_camera"][0], dtype=float).reshape(3, 3, order="F")
         width, height = (int(v) for v in row.values["Pinhole:resolution"][0])
-        yield "/camera/camera_info", row.stamp_ns, {
-            "header": _header(row.stamp_ns, CAMERA_FRAME),
-            "height": height,
-            "width": width,
-            "distortion_model": "plumb_bob",
-            "d": [0.0] * 5,
-            "k": k.flatten().tolist(),
-            "r": [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0],
-            "p": [k[0, 0], 0.0, k[0, 2], 0.0, 0.0, k[1, 1], k[1, 2], 0.0, 0.0, 0.0, 1.0, 0.0],
-            "binning_x": 0,
-            "binning_y": 0,
-            "roi": {"x_offset": 0, "y_offset": 0, "height": 0, "width": 0, "do_rectify": False},
-        }
+        yield (
+            "/camera/camera_info",
+            row.stamp_ns,
+            {
+                "header": _header(row.stamp_ns, CAMERA_FRAME),
+                "height": height,
+                "width": width,
+                "distortion_model": "plumb_bob",
+                "d": [0.0] * 5,
+                "k": k.flatten().tolist(),
+                "r": [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0],
+                "p": [k[0, 0], 0.0, k[0, 2], 0.0, 0.0, k[1, 1], k[1, 2], 0.0, 0.0, 0.0, 1.0, 0.0],
+                "binning_x": 0,
+                "binning_y": 0,
+                "roi": {"x_offset": 0, "y_offset": 0, "height": 0, "width": 0, "do_rectify": False},
+            },
+        )
     for row in world.get(entities.CAMERA_RGB, []):
         yield "/camera/image", row.stamp_ns, _rgb_image(row)
     for row in world.get(entities.CAMERA_DEPTH, []):
         fmt = row.values["DepthImage:format"][0]
-        yield "/camera/depth", row.stamp_ns, {
-            "header": _header(row.stamp_ns, CAMERA_FRAME),
-            "height": int(fmt["height"]),
-            "width": int(fmt["width"]),
-            "encoding": "16UC1",
-            "is_bigendian": 0,
-            "step": 2 * int(fmt["width"]),
-            "data": bytes(row.values["DepthImage:buffer"][0]),
-        }
+        yield (
+            "/camera/depth",
+            row.stamp_ns,
+            {
+                "header": _header(row.stamp_ns, CAMERA_FRAME),
+                "height": int(fmt["height"]),
+                "width": int(fmt["width"]),
+                "encoding": "16UC1",
+                "is_bigendian": 0,
+                "step": 2 * int(fmt["width"]),
+                "data": bytes(row.values["DepthImage:buffer"][0]),
+            },
+        )
     for row in world.get(entities.MAP, []):
         fmt = row.values["GridMap:format"][0]
         width, height = int(fmt["width"]), int(fmt["height"])
         # The logger flipped the rows for Rerun (see WorldLogger._log_map); ROS wants them from the origin.
-        cells = np.frombuffer(bytes(row.values["GridMap:data"][0]), dtype=np.int8).reshape(height, width)[::-1]
+        cells = np.frombuffer(bytes(row.values["GridMap:data"][0]), dtype=np.int8).reshape(height, width)[
+            ::-1
+        ]
         ox, oy, _ = row.values["GridMap:translation"][0]
-        yield "/map", row.stamp_ns, {
-            "header": _header(row.stamp_ns, MAP_FRAME),
-            "info": {
-                "map_load_time": _stamp(row.stamp_ns),
-                "resolution": float(row.values["GridMap:cell_size"][0]),
-                "width": width,
-                "height": height,
-                "origin": {"position": _vector(ox, oy, 0.0), "orientation": _quaternion((0, 0, 0, 1))},
+        yield (
+            "/map",
+            row.stamp_ns,
+            {
+                "header": _header(row.stamp_ns, MAP_FRAME),
+                "info": {
+                    "map_load_time": _stamp(row.stamp_ns),
+                    "resolution": float(row.values["GridMap:cell_size"][0]),
+                    "width": width,
+                    "height": height,
+                    "origin": {"position": _vector(ox, oy, 0.0), "orientation": _quaternion((0, 0, 0, 1))},
+                },
+                "data": cells.flatten().tolist(),
             },
-            "data": cells.flatten().tolist(),
-        }
+        )
     nodes = world.get(entities.MEMORY_NODES, [])
     edges = world.get(entities.MEMORY_EDGES, [])
     subgoals = world.get(entities.SUBGOAL, [])
     changes = sorted({(row.tick, row.stamp_ns) for row in (*nodes, *subgoals)})
     for tick, stamp_ns in changes:
-        yield "/memory/markers", stamp_ns, _memory_markers(
-            stamp_ns, _latest(nodes, tick), _latest(edges, tick), _latest(subgoals, tick)
+        yield (
+            "/memory/markers",
+            stamp_ns,
+            _memory_markers(stamp_ns, _latest(nodes, tick), _latest(edges, tick), _latest(subgoals, tick)),
         )
 
 
@@ -331,6 +367,8 @@ def _rgb_image(row: _Row) -> dict[str, Any]:
 
     blob = np.frombuffer(bytes(row.values["EncodedImage:blob"][0]), dtype=np.uint8)
     bgr = cv2.imdecode(blob, cv2.IMREAD_COLOR)
+    if bgr is None:
+        raise ValueError(f"tick {row.tick}: the camera image in the recording is not a readable JPEG")
     rgb = np.ascontiguousarray(bgr[..., ::-1])
     height, width = rgb.shape[:2]
     return {
@@ -357,7 +395,9 @@ def export_mcap(directory: Path, out_path: Path) -> ExportSummary:
 
     recording = open_recording(directory)
     if recording.world_path is None:
-        raise RecordingError(f"{directory}: no world recording (world.rrd) to export; record with the viewer extra")
+        raise RecordingError(
+            f"{directory}: no world recording (world.rrd) to export; record with the viewer extra"
+        )
     world = _read_world(recording.world_path)
     store = get_typestore(Stores.ROS2_HUMBLE)
     out_path = Path(out_path)

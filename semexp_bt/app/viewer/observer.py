@@ -239,7 +239,9 @@ class ViewObserver:
                 "dropped": self.frames_dropped,
             },
             "worker_errors": self.worker_errors[:10],
-            "world": self._world_file.name if self._world_file is not None and self._world_file.is_file() else None,
+            "world": self._world_file.name
+            if self._world_file is not None and self._world_file.is_file()
+            else None,
         }
         if self.writer is not None:
             self.writer.finish(**summary)
@@ -307,7 +309,12 @@ class ViewObserver:
 
 
 def _rerun_sink(
-    *, recording_id: str, run: MissionRun, world_file: Path | None, grpc_port: int | None, cors_origin: str | None
+    *,
+    recording_id: str,
+    run: MissionRun,
+    world_file: Path | None,
+    grpc_port: int | None,
+    cors_origin: str | None,
 ) -> FrameSink:
     from semexp_bt.app.viewer.world import WorldLogger
 

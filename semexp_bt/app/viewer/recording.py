@@ -159,7 +159,9 @@ def open_recording(directory: Path) -> SavedRecording:
                 record = json.loads(line)
             except json.JSONDecodeError as exc:
                 if raw.endswith("\n") or manifest.get("status") == STATUS_COMPLETE:
-                    raise RecordingError(f"{ticks_path}:{line_no}: not a JSON tick record: {exc.msg}") from exc
+                    raise RecordingError(
+                        f"{ticks_path}:{line_no}: not a JSON tick record: {exc.msg}"
+                    ) from exc
                 break  # the last line of a recording cut short mid-write
             tick = record.get("tick") if isinstance(record, dict) else None
             if not isinstance(tick, int) or tick <= previous or not isinstance(record.get("nodes"), dict):

@@ -8,7 +8,9 @@ from semexp_bt.app.viewer.recording import SavedRecording, open_recording
 from semexp_bt.app.viewer.tree_page import WORLD_ROUTE, TickFeed, ViewServer
 
 
-def serve_recording(directory: Path, *, host: str = "127.0.0.1", port: int = 0) -> tuple[ViewServer, SavedRecording]:
+def serve_recording(
+    directory: Path, *, host: str = "127.0.0.1", port: int = 0
+) -> tuple[ViewServer, SavedRecording]:
     """Serve the saved recording in ``directory`` (checked first) and return the server and the recording.
 
     Raises:

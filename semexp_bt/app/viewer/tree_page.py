@@ -244,18 +244,22 @@ class ViewServer:
         port: the port; 0 picks a free one.
     """
 
-    def __init__(self, feed: TickFeed, *, world_file: Path | None = None, host: str = "127.0.0.1", port: int = 0):
+    def __init__(
+        self, feed: TickFeed, *, world_file: Path | None = None, host: str = "127.0.0.1", port: int = 0
+    ):
         self.feed = feed
         self._server = _PageServer((host, port), _Handler)
         self._server.feed = feed
         self._server.world_file = world_file
-        self._thread = threading.Thread(target=self._server.serve_forever, name="semexp-view-http", daemon=True)
+        self._thread = threading.Thread(
+            target=self._server.serve_forever, name="semexp-view-http", daemon=True
+        )
         self._thread.start()
 
     @property
     def url(self) -> str:
         host, port = self._server.server_address[:2]
-        return f"http://{host}:{port}/"
+        return f"http://{host!s}:{port}/"
 
     @property
     def origin(self) -> str:

@@ -29,7 +29,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -38,9 +38,6 @@ from semexp_bt.app.viewer.frames import MemoryFrame, ModelAnswer, WorldFrame
 from semexp_bt.app.viewer.maps import MapLayer
 from semexp_bt.core.config import DecisionConfig
 from semexp_bt.core.types import Observation, Pose2D, Subgoal, Twist
-
-if TYPE_CHECKING:
-    import rerun as rr
 
 #: Rerun application id of every semexp-bt recording.
 APPLICATION_ID = "semexp_bt"
@@ -110,7 +107,9 @@ def confidence_radii(confidence: npt.ArrayLike) -> npt.NDArray[np.float64]:
     return 0.08 + 0.17 * np.clip(np.asarray(confidence, dtype=float), 0.0, 1.0)
 
 
-def explain_decision(entry: Mapping[str, Any], config: DecisionConfig, *, top: int = EXPLAINED_CANDIDATES) -> str:
+def explain_decision(
+    entry: Mapping[str, Any], config: DecisionConfig, *, top: int = EXPLAINED_CANDIDATES
+) -> str:
     """Why this node: a markdown table of Eq. 9's terms for the winner and the runners-up.
 
     Args:
@@ -173,7 +172,9 @@ def default_blueprint() -> Any:
                     rrb.Spatial2DView(
                         name="Camera", origin=CAMERA_IMAGE, contents=["+ $origin/**", f"- {CAMERA_DEPTH}"]
                     ),
-                    rrb.Spatial2DView(name="Depth", origin=CAMERA_IMAGE, contents=["+ $origin", f"+ {CAMERA_DEPTH}"]),
+                    rrb.Spatial2DView(
+                        name="Depth", origin=CAMERA_IMAGE, contents=["+ $origin", f"+ {CAMERA_DEPTH}"]
+                    ),
                 ),
                 rrb.Tabs(
                     rrb.GraphView(name="Memory graph", origin=MEMORY_GRAPH),
@@ -291,7 +292,9 @@ class WorldLogger:
         rr, rec = self._rr, self.recording
         rec.log(
             ROBOT,
-            rr.Transform3D(translation=(pose.x_m, pose.y_m, 0.0), quaternion=yaw_quaternion_xyzw(pose.yaw_rad)),
+            rr.Transform3D(
+                translation=(pose.x_m, pose.y_m, 0.0), quaternion=yaw_quaternion_xyzw(pose.yaw_rad)
+            ),
         )
         self._last_pose = pose
         point = (pose.x_m, pose.y_m, 0.05)
@@ -311,7 +314,9 @@ class WorldLogger:
             MAP,
             rr.GridMap(
                 data=np.ascontiguousarray(layer.cells[::-1]).astype(np.int8).tobytes(),
-                format=rr.components.ImageFormat(width=width, height=height, color_model="L", channel_datatype="U8"),
+                format=rr.components.ImageFormat(
+                    width=width, height=height, color_model="L", channel_datatype="U8"
+                ),
                 cell_size=layer.resolution_m,
                 translation=(layer.origin_xy[0], layer.origin_xy[1], -0.01),
                 colormap=rr.components.Colormap.RvizMap,
@@ -330,10 +335,14 @@ class WorldLogger:
         if length <= 0.0:
             self.recording.log(PLAN_ARC, rr.Clear(recursive=False))
             return
-        local = arc_points(curvature_1pm=float(plan.arc_curvature_1pm), arclength_m=np.linspace(0.0, length, 12))
+        local = arc_points(
+            curvature_1pm=float(plan.arc_curvature_1pm), arclength_m=np.linspace(0.0, length, 12)
+        )
         world = _base_to_world(local, pose)
         strip = np.column_stack([world, np.full(len(world), 0.06)])
-        self.recording.log(PLAN_ARC, rr.LineStrips3D([strip], colors=[ARC_COLOUR], radii=[0.025], labels=[label]))
+        self.recording.log(
+            PLAN_ARC, rr.LineStrips3D([strip], colors=[ARC_COLOUR], radii=[0.025], labels=[label])
+        )
 
     def _log_observation(self, obs: Observation) -> None:
         import cv2
@@ -357,7 +366,9 @@ class WorldLogger:
         if ok:
             rec.log(CAMERA_RGB, rr.EncodedImage(contents=jpeg.tobytes(), media_type="image/jpeg"))
         depth = np.nan_to_num(np.asarray(obs.depth_m, dtype=float), nan=0.0) * DEPTH_UNITS_PER_M
-        rec.log(CAMERA_DEPTH, rr.DepthImage(np.clip(depth, 0, 65535).astype(np.uint16), meter=DEPTH_UNITS_PER_M))
+        rec.log(
+            CAMERA_DEPTH, rr.DepthImage(np.clip(depth, 0, 65535).astype(np.uint16), meter=DEPTH_UNITS_PER_M)
+        )
         # The models have not answered about this frame yet: what they said about the last one goes.
         for entity in (DETECTIONS, PROPOSALS, TARGET):
             rec.log(entity, rr.Clear(recursive=False))
@@ -437,7 +448,9 @@ class WorldLogger:
         strips = [[where[u], where[v]] for u, v in memory.edges if u in where and v in where]
         rec.log(
             MEMORY_EDGES,
-            rr.LineStrips3D(strips, colors=[EDGE_COLOUR], radii=[0.01]) if strips else rr.Clear(recursive=False),
+            rr.LineStrips3D(strips, colors=[EDGE_COLOUR], radii=[0.01])
+            if strips
+            else rr.Clear(recursive=False),
         )
         self._log_graph()
 
@@ -465,7 +478,10 @@ class WorldLogger:
 
     def _log_decision(self, entry: Mapping[str, Any]) -> None:
         rr, rec = self._rr, self.recording
-        rec.log(EXPLANATION, rr.TextDocument(explain_decision(entry, self.decision_config), media_type="text/markdown"))
+        rec.log(
+            EXPLANATION,
+            rr.TextDocument(explain_decision(entry, self.decision_config), media_type="text/markdown"),
+        )
         candidates: Sequence[Mapping[str, Any]] = entry.get("candidates", ())
         if not candidates:
             rec.log(CANDIDATES, rr.Clear(recursive=False))
