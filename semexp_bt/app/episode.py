@@ -19,7 +19,7 @@ import time
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, TextIO, cast
+from typing import TYPE_CHECKING, Any, TextIO, cast
 
 import numpy as np
 
@@ -33,7 +33,13 @@ from semexp_bt.app.components import (
 )
 from semexp_bt.app.configuration import resolve_config
 from semexp_bt.app.recorder import TickRecorder
-from semexp_bt.app.runner import MissionComponents, MissionResult, PrivilegedKnowledge, run_mission
+from semexp_bt.app.runner import (
+    MissionComponents,
+    MissionResult,
+    PrivilegedKnowledge,
+    TickObserver,
+    run_mission,
+)
 from semexp_bt.app.strategies import Strategy, resolve_strategy
 from semexp_bt.core.metrics import DEFAULT_CLEARANCE_M, DEFAULT_SUCCESS_RADIUS_M
 from semexp_bt.core.scene import SceneObject, SceneSpec
@@ -41,6 +47,9 @@ from sims.catalogue import build_scene
 from sims.episodes import Episode, sample_episode
 from sims.geodesic import GeodesicOracle
 from trees.loader import parse_mission
+
+if TYPE_CHECKING:
+    from semexp_bt.app.viewer.observer import ViewOptions
 
 #: ``trajectory_xy`` keeps a base position each time the robot has moved this far (m) since the last kept one.
 TRAJECTORY_STEP_M = 0.1
@@ -74,6 +83,7 @@ class EpisodeOptions:
         keep_trajectory: add ``trajectory_xy`` (the base path, subsampled every
             :data:`TRAJECTORY_STEP_M`) and ``memory_snapshot`` (``TopologicalMemory.snapshot()`` at the
             end) to the record, for the harness's trajectory plots.
+        view: serve and/or save the browser view (``semexp_bt.app.viewer``), or None.
     """
 
     mission_path: Path
@@ -92,6 +102,7 @@ class EpisodeOptions:
     clearance_m: float = DEFAULT_CLEARANCE_M
     max_sim_s: float = 900.0
     keep_trajectory: bool = False
+    view: ViewOptions | None = None
 
 
 def run_episode(options: EpisodeOptions) -> dict[str, Any]:
@@ -123,6 +134,12 @@ def run_episode(options: EpisodeOptions) -> dict[str, Any]:
         scene=scene,
         start_pose=episode.start,
     )
+    recorder = TickRecorder(path=options.record_path, display=options.display, stream=options.display_stream)
+    observers: list[TickObserver] = [recorder]
+    if options.view is not None:
+        from semexp_bt.app.viewer.observer import ViewObserver
+
+        observers.append(ViewObserver(options.view, recorder=recorder))
     robot = build_robot("mujoco", request)
     try:
         components = MissionComponents(
@@ -144,9 +161,7 @@ def run_episode(options: EpisodeOptions) -> dict[str, Any]:
             strategy_switches=strategy.switches,
             start_pose=episode.start,
             max_time_s=options.max_sim_s,
-            observers=[
-                TickRecorder(path=options.record_path, display=options.display, stream=options.display_stream)
-            ],
+            observers=observers,
             privileged=privileged,
         )
         record = episode_record(
