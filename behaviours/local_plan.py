@@ -42,7 +42,7 @@ import py_trees
 from behaviours.base import SemExpBehaviour
 from behaviours.rate_limiter import CLOCK_TOLERANCE_S, next_due_s
 from behaviours.spec import BuildContext, ParamSpec
-from semexp_bt.core.geometry import world_to_base, wrap_angle
+from semexp_bt.core.geometry import world_to_base
 from semexp_bt.core.types import PixelGrid, Pose2D, Twist
 from semexp_bt.nav.local_map import OccupancyMap, lookahead_point
 from semexp_bt.nav.planner import LocalPlanner, arc_points
@@ -278,7 +278,10 @@ class LocalPlan(SemExpBehaviour):
 
     def _arrive(self, pose: Pose2D, goal_xy: tuple[float, float], note: str) -> py_trees.common.Status:
         """Arrival: turn in place to face the subgoal first, so the next perception looks at it."""
-        bearing = wrap_angle(math.atan2(goal_xy[1] - pose.y_m, goal_xy[0] - pose.x_m) - pose.yaw_rad)
+        # math.remainder, not core wrap_angle: the two round differently, and the swap changes episodes.
+        bearing = math.remainder(
+            math.atan2(goal_xy[1] - pose.y_m, goal_xy[0] - pose.x_m) - pose.yaw_rad, math.tau
+        )
         if abs(bearing) > self.facing_tolerance_rad:
             self.command(
                 Twist(angular_z_radps=math.copysign(max(0.3, min(0.8, 1.5 * abs(bearing))), bearing))
