@@ -92,19 +92,7 @@ def arbitrate(
     scene_view = read_scene_evidence(scene, config, size, aligned)
     table = candidate_table(objects, scene_view, associate(objects, scene_view))
     if table is None:
-        return ArbitrationResult(
-            target=None,
-            candidates=(),
-            reason=(
-                f"no candidates: none of {len(objects.detections)} detection(s) is aligned with the "
-                "instruction and "
-                + (
-                    "there is no scene evidence"
-                    if scene is None
-                    else f"none of {len(scene_view.proposals)} scene proposal(s) is a direction or aligned"
-                )
-            ),
-        )
+        return _no_candidates(len(objects.detections), None if scene is None else len(scene_view.proposals))
     terms = confidence_terms(table, config)
     weights, pixels = fuse_locations(table, terms)
     scores = score_candidates(
@@ -151,6 +139,23 @@ def _memoised(is_aligned: Callable[[str], bool]) -> Callable[[str], bool]:
         return alignment[label]
 
     return aligned
+
+
+def _no_candidates(n_detections: int, n_proposals: int | None) -> ArbitrationResult:
+    """The result of a view with no candidate (``n_proposals`` None: no scene evidence)."""
+    scene_part = (
+        "there is no scene evidence"
+        if n_proposals is None
+        else f"none of {n_proposals} scene proposal(s) is a direction or aligned"
+    )
+    return ArbitrationResult(
+        target=None,
+        candidates=(),
+        reason=(
+            f"no candidates: none of {n_detections} detection(s) is aligned with the instruction and "
+            f"{scene_part}"
+        ),
+    )
 
 
 def _scored_candidates(

@@ -443,6 +443,7 @@ def candidate_table(
     kinds += [proposals[i].kind for i in scene_only]
     sources: list[CandidateSource] = ["fused" if i in absorbed_by else "object" for i in aligned_dets]
     sources += ["scene"] * len(scene_only)
+    is_object = np.array([kind == "object" for kind in kinds])  # every detection, and scene objects
     scene_confidence = scene.confidence if scene.confidence is not None else 0.0
     return CandidateTable(
         detection_of=det_of,
@@ -450,10 +451,8 @@ def candidate_table(
         has_object=has_o,
         has_scene=has_s,
         fused=has_o & has_s,
-        is_object=np.array([True] * len(aligned_dets) + [proposals[i].kind == "object" for i in scene_only]),
-        is_direction=np.array(
-            [False] * len(aligned_dets) + [proposals[i].kind == "direction" for i in scene_only]
-        ),
+        is_object=is_object,
+        is_direction=~is_object,
         labels=[objects.detections[i].label for i in aligned_dets] + [proposals[i].label for i in scene_only],
         kinds=kinds,
         sources=sources,

@@ -9,8 +9,9 @@ it examines only nodes touched since its last run, which finds exactly what a fu
 and checked by :meth:`TopologicalMemory.check_invariants`.
 
 Snapshots (:meth:`TopologicalMemory.snapshot`, :meth:`TopologicalMemory.from_snapshot`) use the format of
-:mod:`semexp_bt.core.memory.snapshot`. The graph is exposed as :attr:`TopologicalMemory.graph` for reading (Dijkstra, drawing, export); mutate it
-only through this class, or the spatial index goes stale. The class is not thread-safe.
+:mod:`semexp_bt.core.memory.snapshot`. The graph is exposed as :attr:`TopologicalMemory.graph` for
+reading (Dijkstra, drawing, export); mutate it only through this class, or the spatial index goes stale.
+The class is not thread-safe.
 
 This is a core module: it imports only the standard library, numpy and networkx.
 """

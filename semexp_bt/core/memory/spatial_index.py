@@ -169,7 +169,8 @@ class SpatialIndex:
     def __init__(self, cell_m: float) -> None:
         self.cell_m = cell_m
         self.positions: dict[int, Vec3] = {}
-        """node id -> position; read it, change it only through :meth:`insert`, :meth:`remove`, :meth:`move`."""
+        """node id -> position: read it; change it only through :meth:`insert`, :meth:`remove` and
+        :meth:`move`."""
         self._grid = SpatialGrid(cell_m)
         self._store = PointStore()
 
