@@ -25,9 +25,9 @@ from typing import TYPE_CHECKING, Any
 
 import py_trees
 
-from blackboard.schema import SCHEMA
 from semexp_bt.app.viewer.maps import MAP_PERIOD_S, MapLayer, map_layer, map_version
 from semexp_bt.core.types import NodeState, Observation, Pose2D, SceneEvidence, Subgoal, Twist
+from trees.registry import default_registry, key_uses
 
 if TYPE_CHECKING:
     from semexp_bt.app.runner import MissionRun
@@ -35,8 +35,8 @@ if TYPE_CHECKING:
 #: The robot's pose, velocity and command reach the view this often (Hz of robot time): a tenth of the
 #: tick rate is smooth to the eye and keeps the worker thread's share of the interpreter small.
 POSE_RATE_HZ = 10.0
-#: The behaviours that change the topological memory in place (the schema's writers of ``memory``).
-MEMORY_WRITERS = frozenset(SCHEMA["memory"].writers) - {"runner"}
+#: The behaviours that change the topological memory in place (the node types that declare ``memory`` written).
+MEMORY_WRITERS = frozenset(key_uses(default_registry())["memory"].writers)
 #: Statuses after which a memory writer has done its work for this tick.
 _DONE = frozenset({"SUCCESS", "FAILURE"})
 
