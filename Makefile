@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: setup mission test lint bench-core slow ray
+.PHONY: setup mission test lint bench-core slow ray viewer-setup viewer-test
 
 $(STAMP): pyproject.toml scripts/setup.sh
 	bash scripts/setup.sh
@@ -28,3 +28,14 @@ ray: $(STAMP)
 
 bench-core: $(STAMP)
 	$(BIN)/semexp-bt bench core --json runs/bench-core.json
+
+# The browser view (docs/viewer.md): the viewer extra, Playwright, and Debian's Chromium (installed with
+# apt-get when missing and run as root, as CI is); then the tests behind the viewer and browser markers.
+viewer-setup: $(STAMP)
+	$(BIN)/pip install -q -e '.[viewer,viewer-test]'
+	@command -v chromium >/dev/null || { [ "$$(id -u)" = 0 ] && apt-get update -qq && \
+		DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium; } || \
+		{ echo "viewer-setup: install Debian's chromium (apt-get install chromium)"; exit 1; }
+
+viewer-test: viewer-setup
+	MUJOCO_GL=egl $(BIN)/python -m pytest -q -m 'viewer or browser'

@@ -258,6 +258,7 @@ class LocalPlan(SemExpBehaviour):
 
     def _arrive(self, pose: Pose2D, goal_xy: tuple[float, float], note: str) -> py_trees.common.Status:
         """Arrival: turn in place to face the subgoal first, so the next perception looks at it."""
+        # math.remainder, not core wrap_angle: the two round differently, and the swap changes episodes.
         bearing = math.remainder(
             math.atan2(goal_xy[1] - pose.y_m, goal_xy[0] - pose.x_m) - pose.yaw_rad, math.tau
         )

@@ -31,6 +31,7 @@ import py_trees
 
 from behaviours.base import SemExpBehaviour
 from behaviours.spec import param
+from semexp_bt.core.geometry import wrap_angle
 
 
 class StuckGuard(SemExpBehaviour):
@@ -86,7 +87,7 @@ class StuckGuard(SemExpBehaviour):
         t0, x0, y0, yaw0 = self._anchor
         pose = self.services.robot.base_pose()
         moved = math.hypot(pose.x_m - x0, pose.y_m - y0)
-        turned = abs(math.remainder(pose.yaw_rad - yaw0, math.tau))
+        turned = abs(wrap_angle(pose.yaw_rad - yaw0))
         if moved >= self.min_progress_m or turned >= self.min_turn_rad:
             self._reset()
             return py_trees.common.Status.RUNNING

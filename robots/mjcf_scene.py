@@ -20,7 +20,6 @@ from __future__ import annotations
 import math
 import re
 import xml.etree.ElementTree as ET
-from typing import Literal
 
 import mujoco
 import numpy as np
@@ -28,11 +27,9 @@ import numpy.typing as npt
 
 from robots.camera import CameraConfig
 from robots.go1 import CAMERA_NAME, GO1_XML_PATH, IMU_SITE_NAME, TRUNK_BODY_NAME, Go1Spec, load_go1_spec
+from robots.interface import FIDELITIES, Fidelity
 from semexp_bt.core.scene import SceneObject, SceneSpec
 from semexp_bt.core.types import BACKGROUND_OBJECT_ID
-
-Fidelity = Literal["kinematic", "dynamic"]
-FIDELITIES: tuple[str, ...] = ("kinematic", "dynamic")
 
 FLOOR_GEOM_NAME = "floor"
 KINEMATIC_JOINT_NAMES: tuple[str, str, str] = ("base_x", "base_y", "base_yaw")

@@ -35,6 +35,7 @@ from typing import Any
 
 import numpy as np
 
+from semexp_bt.core.geometry import wrap_angle
 from semexp_bt.core.scene import SceneObject, SceneSpec
 from semexp_bt.core.types import BACKGROUND_OBJECT_ID, CameraIntrinsics, Observation, Pose2D
 from sims.label_confusions import normalise_label
@@ -429,7 +430,7 @@ def rendered_views(
                 if any(_footprint_distance_m(o, x, y) < ROBOT_CLEARANCE_M for o in obstacles):
                     continue
                 yaw = bearing + math.pi + float(rng.uniform(-1.0, 1.0)) * math.radians(25.0)
-                pose = Pose2D(x, y, math.atan2(math.sin(yaw), math.cos(yaw)))
+                pose = Pose2D(x, y, wrap_angle(yaw))
                 robot = _place_robot(MujocoRobot, robot, scene, pose, seed + view_index * max_tries + attempt)
                 obs = robot.observe()
                 if shows(obs, subject.object_id, min_pixels=min_pixels):

@@ -19,7 +19,7 @@ import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, TextIO, cast
+from typing import TYPE_CHECKING, Any, TextIO, cast
 
 import numpy as np
 
@@ -50,6 +50,9 @@ from sims.episodes import Episode, sample_episode
 from sims.faults import FaultSpec, parse_faults
 from sims.geodesic import GeodesicOracle
 from trees.loader import parse_mission
+
+if TYPE_CHECKING:
+    from semexp_bt.app.viewer.observer import ViewOptions
 
 #: ``trajectory_xy`` keeps a base position each time the robot has moved this far (m) since the last kept one.
 TRAJECTORY_STEP_M = 0.1
@@ -86,6 +89,7 @@ class EpisodeOptions:
         faults: faults to inject (``sims.faults``); None takes the mission file's ``faults:`` section.
             The record then names them under ``faults`` and is scored on the true robot state.
         observers: more tick observers (a benchmark's probe), after the recorder.
+        view: serve and/or save the browser view (``semexp_bt.app.viewer``), or None.
     """
 
     mission_path: Path
@@ -106,6 +110,7 @@ class EpisodeOptions:
     keep_trajectory: bool = False
     faults: Sequence[FaultSpec] | None = None
     observers: Sequence[TickObserver] = ()
+    view: ViewOptions | None = None
 
 
 def run_episode(options: EpisodeOptions) -> dict[str, Any]:
@@ -142,6 +147,12 @@ def run_episode(options: EpisodeOptions) -> dict[str, Any]:
         scene=scene,
         start_pose=episode.start,
     )
+    recorder = TickRecorder(path=options.record_path, display=options.display, stream=options.display_stream)
+    observers: list[TickObserver] = [recorder, *options.observers]
+    if options.view is not None:
+        from semexp_bt.app.viewer.observer import ViewObserver
+
+        observers.append(ViewObserver(options.view, recorder=recorder))
     robot = build_robot("mujoco", request)
     try:
         # The mission runs on the decorated robot; the episode is scored on the robot itself.
@@ -167,12 +178,7 @@ def run_episode(options: EpisodeOptions) -> dict[str, Any]:
             strategy_switches=strategy.switches,
             start_pose=episode.start,
             max_time_s=options.max_sim_s,
-            observers=[
-                TickRecorder(
-                    path=options.record_path, display=options.display, stream=options.display_stream
-                ),
-                *options.observers,
-            ],
+            observers=observers,
             privileged=privileged,
         )
         record = episode_record(

@@ -25,12 +25,13 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
+from robots.interface import FIDELITIES
+from semexp_bt.app.components import RELEVANCE_SCORERS
 from semexp_bt.core.metrics import DEFAULT_CLEARANCE_M, DEFAULT_SUCCESS_RADIUS_M
 
 #: Bumped when the row format or the meaning of a key changes (it is part of the config hash).
 ROW_SCHEMA_VERSION = 1
-FIDELITIES = ("kinematic", "dynamic")
-RELEVANCES = ("embedding", "lexical")
+RELEVANCES = tuple(RELEVANCE_SCORERS)
 #: Default wall-time limit per episode (s). A kinematic episode of the 600 s mission takes about 50 s
 #: on one core of the development machine; ten times that means something is wrong.
 DEFAULT_EPISODE_TIMEOUT_S = 600.0

@@ -20,6 +20,8 @@ from semexp_bt.cli.arguments import OneLineArgumentParser
 COMMANDS: dict[str, tuple[str, str]] = {
     "run": ("semexp_bt.cli.run", "run one mission tree on a robot backend"),
     "replay": ("semexp_bt.cli.replay", "print a per-tick record back"),
+    "view": ("semexp_bt.cli.view", "replay a saved mission view in the browser"),
+    "export": ("semexp_bt.cli.export", "export a saved mission view as MCAP (ROS 2 messages)"),
     "tree": ("semexp_bt.cli.tree", "validate (check) or print (show) a mission tree"),
     "scene": ("semexp_bt.cli.scene", "list scenes or render one"),
     "bench": ("semexp_bt.cli.bench", "benchmarks: core, ..."),

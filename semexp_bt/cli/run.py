@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import time
 from pathlib import Path
 from typing import Any
 
@@ -65,6 +66,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=None,
         help="YAML fault list to inject in simulation (docs/reliability.md); replaces the mission's faults:",
     )
+    parser.add_argument(
+        "--view",
+        action="store_true",
+        help="serve the live browser view (tree, world, memory; docs/viewer.md)",
+    )
+    parser.add_argument(
+        "--view-record", type=Path, default=None, metavar="DIR", help="save the view (`semexp-bt view DIR`)"
+    )
+    parser.add_argument("--view-port", type=int, default=0, help="the live view's port (default: a free one)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -80,6 +90,13 @@ def run(args: argparse.Namespace) -> int:
         return 2
     except ValueError as exc:  # ConfigError, InvalidInputError
         print_error(str(exc))
+        return 2
+    except RuntimeError as exc:
+        from semexp_bt.app.viewer.observer import ViewerUnavailableError
+
+        if not isinstance(exc, ViewerUnavailableError):
+            raise
+        print(f"error: {exc}", file=sys.stderr)
         return 2
     if args.json is not None:
         write_json(args.json, record)
@@ -105,7 +122,44 @@ def _run(args: argparse.Namespace) -> dict[str, Any]:
             display=args.display,
             record_path=args.record,
             faults=None if args.faults is None else load_faults_file(args.faults),
+            view=_view_options(args),
         )
+    )
+
+
+def _view_options(args: argparse.Namespace) -> Any:
+    """The view's options from ``--view`` / ``--view-record``, or None when neither is given."""
+    if not args.view and args.view_record is None:
+        return None
+    from semexp_bt.app.viewer.observer import ViewOptions
+
+    def announce(url: str) -> None:
+        print(f"view: {url}", flush=True)
+
+    def keep_open(view: Any, outcome: str) -> None:
+        # An interactive user is watching: keep the page and the stream until they are done.
+        if sys.stdin.isatty():
+            print(f"view: mission ended ({outcome}); the view stays at {view.url} until Ctrl-C", flush=True)
+            try:
+                while True:
+                    time.sleep(1.0)
+            except KeyboardInterrupt:
+                pass
+
+    return ViewOptions(
+        live=args.view,
+        record_dir=args.view_record,
+        port=args.view_port,
+        open_browser=args.view,
+        title=f"{args.scene} seed {args.seed}: {args.mission.name}",
+        mission={
+            "scene": args.scene,
+            "seed": args.seed,
+            "strategy": args.strategy,
+            "mission": str(args.mission),
+        },
+        announce=announce,
+        after_mission=keep_open,
     )
 
 

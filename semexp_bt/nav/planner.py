@@ -33,7 +33,6 @@ This is a core module: it imports only the standard library and numpy.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass, field
 from typing import Any, Literal, Protocol, runtime_checkable
@@ -41,6 +40,9 @@ from typing import Any, Literal, Protocol, runtime_checkable
 import numpy as np
 import numpy.typing as npt
 
+from semexp_bt.core.bounds import field_range
+from semexp_bt.core.config import field_problem
+from semexp_bt.core.geometry import wrap_angle
 from semexp_bt.core.types import (
     CameraIntrinsics,
     FloatArray,
@@ -61,11 +63,6 @@ safe, or toward a detour that lies outside the view because the direct way is ob
 _EPS = 1e-9
 
 
-def _range(lo: float, hi: float) -> dict[str, Any]:
-    """Closed-interval metadata in the format ``semexp_bt.core.config.config_from_dict`` validates."""
-    return {"range": (lo, hi, False, False)}
-
-
 @dataclass(frozen=True)
 class PlannerConfig:
     """Every constant of :class:`DepthArcPlanner`, named once (units in the names).
@@ -75,136 +72,128 @@ class PlannerConfig:
     """
 
     # --- robot and command limits -------------------------------------------------------------------
-    robot_radius_m: float = field(default=0.30, metadata=_range(0.05, 2.0))
+    robot_radius_m: float = field(default=0.30, metadata=field_range(0.05, 2.0))
     """Radius of the disc that covers the Go1's feet in any heading (as ``sims.robot_footprint``)."""
-    safety_margin_m: float = field(default=0.10, metadata=_range(0.0, 2.0))
+    safety_margin_m: float = field(default=0.10, metadata=field_range(0.0, 2.0))
     """Hard limit: an arc whose disc comes closer than this to an obstacle point is rejected."""
-    max_speed_mps: float = field(default=0.6, metadata=_range(0.05, 1.0))
+    max_speed_mps: float = field(default=0.6, metadata=field_range(0.05, 1.0))
     """Fastest forward speed commanded (the gait allows 1.0 m/s; 0.6 is kept near obstacles)."""
-    min_speed_mps: float = field(default=0.1, metadata=_range(0.01, 1.0))
+    min_speed_mps: float = field(default=0.1, metadata=field_range(0.01, 1.0))
     """Slowest sampled arc speed."""
-    n_speeds: int = field(default=6, metadata=_range(1, 50))
+    n_speeds: int = field(default=6, metadata=field_range(1, 50))
     """Number of sampled speeds, evenly spaced in [min_speed_mps, max_speed_mps]."""
-    max_yaw_rate_radps: float = field(default=1.0, metadata=_range(0.05, 1.0))
+    max_yaw_rate_radps: float = field(default=1.0, metadata=field_range(0.05, 1.0))
     """Largest commanded yaw rate, either sign (the gait's limit is 1.0 rad/s)."""
-    max_curvature_1pm: float = field(default=4.0, metadata=_range(0.1, 20.0))
+    max_curvature_1pm: float = field(default=4.0, metadata=field_range(0.1, 20.0))
     """Sharpest sampled arc curvature (1/m); arcs need |curvature * speed| <= max_yaw_rate_radps."""
-    n_curvatures: int = field(default=33, metadata=_range(3, 201))
+    n_curvatures: int = field(default=33, metadata=field_range(3, 201))
     """Number of sampled curvatures, evenly spaced in [-max, max] (odd keeps the straight arc)."""
-    horizon_s: float = field(default=2.0, metadata=_range(0.1, 10.0))
+    horizon_s: float = field(default=2.0, metadata=field_range(0.1, 10.0))
     """Arc duration: an arc at speed v is checked over length v * horizon_s."""
-    arc_step_m: float = field(default=0.05, metadata=_range(0.005, 0.5))
+    arc_step_m: float = field(default=0.05, metadata=field_range(0.005, 0.5))
     """Spacing of the clearance samples along each arc; the chord error is below step^2 / (8 r)."""
 
     # --- depth to obstacle points -------------------------------------------------------------------
-    pixel_stride: int = field(default=4, metadata=_range(1, 64))
+    pixel_stride: int = field(default=4, metadata=field_range(1, 64))
     """Use every stride-th pixel in both directions (320x240 at 4 gives 4800 rays)."""
-    depth_min_m: float = field(default=0.1, metadata=_range(0.0, 10.0))
+    depth_min_m: float = field(default=0.1, metadata=field_range(0.0, 10.0))
     """Depth below this is invalid (closer than the sensor's minimum range): unknown, not obstacle."""
-    depth_max_m: float = field(default=5.0, metadata=_range(0.1, 100.0))
+    depth_max_m: float = field(default=5.0, metadata=field_range(0.1, 100.0))
     """Depth beyond this is invalid: unknown, not obstacle."""
-    floor_z_in_base_m: float = field(default=0.0, metadata=_range(-2.0, 2.0))
+    floor_z_in_base_m: float = field(default=0.0, metadata=field_range(-2.0, 2.0))
     """Height of the floor in ``base_link`` (0 when base_link sits on the floor, as base_footprint
     does; -0.29 when it is the Go1 trunk frame)."""
-    obstacle_min_height_m: float = field(default=0.05, metadata=_range(0.0, 2.0))
+    obstacle_min_height_m: float = field(default=0.05, metadata=field_range(0.0, 2.0))
     """Points lower than this above the floor are floor (or steps the gait walks over)."""
-    obstacle_max_height_m: float = field(default=0.60, metadata=_range(0.05, 5.0))
+    obstacle_max_height_m: float = field(default=0.60, metadata=field_range(0.05, 5.0))
     """Points higher than this above the floor are overhangs the robot walks under."""
-    grid_cell_m: float = field(default=0.05, metadata=_range(0.005, 0.5))
+    grid_cell_m: float = field(default=0.05, metadata=field_range(0.005, 0.5))
     """Obstacle points are thinned to one per 2D cell of this side; the robot disc is inflated by the
     half diagonal so that the thinning never hides an obstacle."""
 
     # --- visibility and memory ----------------------------------------------------------------------
-    unseen_allowance_m: float = field(default=0.30, metadata=_range(0.0, 2.0))
+    unseen_allowance_m: float = field(default=0.30, metadata=field_range(0.0, 2.0))
     """An arc may leave the camera's view only within this distance travelled."""
-    memory_horizon_s: float = field(default=15.0, metadata=_range(0.0, 600.0))
+    memory_horizon_s: float = field(default=15.0, metadata=field_range(0.0, 600.0))
     """Obstacle points are remembered this long (0 disables the memory)."""
-    memory_radius_m: float = field(default=5.0, metadata=_range(0.1, 50.0))
+    memory_radius_m: float = field(default=5.0, metadata=field_range(0.1, 50.0))
     """Remembered points farther than this from the robot are forgotten."""
-    memory_clear_tolerance_m: float = field(default=0.10, metadata=_range(0.0, 2.0))
+    memory_clear_tolerance_m: float = field(default=0.10, metadata=field_range(0.0, 2.0))
     """A remembered point in view is cleared when the measured depth at its pixel reaches at least
     its own depth minus this tolerance (the ray passes through it: it is gone or seen again)."""
-    max_memory_points: int = field(default=4000, metadata=_range(1, 1_000_000))
+    max_memory_points: int = field(default=4000, metadata=field_range(1, 1_000_000))
     """Hard cap on remembered points (the oldest go first)."""
 
     # --- goal handling ------------------------------------------------------------------------------
-    arrival_radius_m: float = field(default=0.5, metadata=_range(0.0, 10.0))
+    arrival_radius_m: float = field(default=0.5, metadata=field_range(0.0, 10.0))
     """Within this distance of the goal the planner stops and reports ``arrived``."""
-    standoff_arrival_radius_m: float = field(default=0.9, metadata=_range(0.0, 10.0))
+    standoff_arrival_radius_m: float = field(default=0.9, metadata=field_range(0.0, 10.0))
     """A goal on or against an obstacle (a memory node back-projected onto an object's surface, a place
     next to a wall) cannot be reached within ``arrival_radius_m`` by a disc that keeps the safety margin.
     Within this distance of such a goal, when the robot cannot slide more than
     ``standoff_slide_tolerance_m`` further toward it, it stands at the nearest safe standoff: ``arrived``.
     0 disables the rule. Keep it at or below the success radius r_s (1.0 m) so a standoff next to the
     goal object still counts as reaching it."""
-    standoff_slide_tolerance_m: float = field(default=0.15, metadata=_range(0.0, 2.0))
+    standoff_slide_tolerance_m: float = field(default=0.15, metadata=field_range(0.0, 2.0))
     """How much free straight-line travel toward the goal still counts as 'cannot get closer'."""
-    turn_in_place_margin_rad: float = field(default=0.1, metadata=_range(0.0, 2.0 * math.pi))
+    turn_in_place_margin_rad: float = field(default=0.1, metadata=field_range(0.0, 2.0 * math.pi))
     """Rotate in place when the way to the goal lies more than this outside the camera's horizontal
     half field of view (a large value disables rotating in place for goals to the side) ..."""
-    turn_in_place_exit_rad: float = field(default=0.3, metadata=_range(0.0, math.pi))
+    turn_in_place_exit_rad: float = field(default=0.3, metadata=field_range(0.0, math.pi))
     """... until it is within this of the camera's heading (hysteresis keeps the mode from chattering)."""
-    turn_gain_per_s: float = field(default=1.5, metadata=_range(0.0, 20.0))
+    turn_gain_per_s: float = field(default=1.5, metadata=field_range(0.0, 20.0))
     """Yaw rate per radian of goal bearing when rotating toward the goal."""
-    min_turn_rate_radps: float = field(default=0.3, metadata=_range(0.0, 1.0))
+    min_turn_rate_radps: float = field(default=0.3, metadata=field_range(0.0, 1.0))
     """Smallest yaw rate of a rotation in place (below it the gait barely turns)."""
-    blocked_turn_rate_radps: float = field(default=0.6, metadata=_range(0.05, 1.0))
+    blocked_turn_rate_radps: float = field(default=0.6, metadata=field_range(0.05, 1.0))
     """Yaw rate of the rotation in place when no arc is safe."""
-    open_direction_range_m: float = field(default=1.5, metadata=_range(0.1, 20.0))
+    open_direction_range_m: float = field(default=1.5, metadata=field_range(0.1, 20.0))
     """Range of the polar histogram that picks the most open direction when blocked."""
-    n_direction_bins: int = field(default=72, metadata=_range(8, 720))
+    n_direction_bins: int = field(default=72, metadata=field_range(8, 720))
     """Bins of that polar histogram over the full circle."""
 
     # --- slowdown -----------------------------------------------------------------------------------
-    goal_slowdown_distance_m: float = field(default=1.2, metadata=_range(0.01, 20.0))
+    goal_slowdown_distance_m: float = field(default=1.2, metadata=field_range(0.01, 20.0))
     """Speed scales down linearly with goal distance below this."""
-    obstacle_slowdown_clearance_m: float = field(default=0.3, metadata=_range(0.01, 10.0))
+    obstacle_slowdown_clearance_m: float = field(default=0.3, metadata=field_range(0.01, 10.0))
     """Speed scales down linearly with arc clearance above the margin below this."""
-    creep_speed_mps: float = field(default=0.08, metadata=_range(0.0, 1.0))
+    creep_speed_mps: float = field(default=0.08, metadata=field_range(0.0, 1.0))
     """The slowdowns never bring a chosen arc below this speed."""
 
     # --- arc scores (higher is better; each term lies in [0, 1] or [-1, 1]) -----------------------
-    weight_progress: float = field(default=1.0, metadata=_range(0.0, 100.0))
+    weight_progress: float = field(default=1.0, metadata=field_range(0.0, 100.0))
     """Distance to the guide point gained over the arc, per longest arc length, in [-1, 1]."""
-    weight_heading: float = field(default=0.3, metadata=_range(0.0, 100.0))
+    weight_heading: float = field(default=0.3, metadata=field_range(0.0, 100.0))
     """1 - |guide-point bearing at the arc end| / pi."""
-    weight_clearance: float = field(default=0.4, metadata=_range(0.0, 100.0))
+    weight_clearance: float = field(default=0.4, metadata=field_range(0.0, 100.0))
     """Arc clearance above the margin, saturated at clearance_saturation_m."""
-    weight_smoothness: float = field(default=0.15, metadata=_range(0.0, 100.0))
+    weight_smoothness: float = field(default=0.15, metadata=field_range(0.0, 100.0))
     """1 - normalised change of (v, omega) from the previous command."""
-    clearance_saturation_m: float = field(default=0.6, metadata=_range(0.01, 10.0))
+    clearance_saturation_m: float = field(default=0.6, metadata=field_range(0.01, 10.0))
     """Clearance beyond the margin stops scoring above this."""
-    guide_lookahead_m: float = field(default=3.0, metadata=_range(0.1, 50.0))
+    guide_lookahead_m: float = field(default=3.0, metadata=field_range(0.1, 50.0))
     """Longest first leg of the two-leg guide path (see ``_guide_point``)."""
-    guide_leg_lengths: int = field(default=6, metadata=_range(1, 20))
+    guide_leg_lengths: int = field(default=6, metadata=field_range(1, 20))
     """First legs are tried at this many lengths, evenly spaced up to guide_lookahead_m."""
-    guide_check_range_m: float = field(default=3.0, metadata=_range(0.1, 50.0))
+    guide_check_range_m: float = field(default=3.0, metadata=field_range(0.1, 50.0))
     """The second leg (waypoint to goal) is checked against known points this far."""
-    guide_clearance_m: float = field(default=0.3, metadata=_range(0.0, 5.0))
+    guide_clearance_m: float = field(default=0.3, metadata=field_range(0.0, 5.0))
     """Clearance the guide path prefers to keep from known points (more than the hard margin, so the
     robot passes obstacles with room to spare and does not creep along them at the margin)."""
-    guide_tight_penalty_m: float = field(default=1.0, metadata=_range(0.0, 100.0))
+    guide_tight_penalty_m: float = field(default=1.0, metadata=field_range(0.0, 100.0))
     """Added per leg of a guide path that passes closer than guide_clearance_m to a known point."""
-    guide_blocked_penalty_m: float = field(default=4.0, metadata=_range(0.0, 100.0))
+    guide_blocked_penalty_m: float = field(default=4.0, metadata=field_range(0.0, 100.0))
     """Added to the length of a guide path whose second leg is blocked."""
-    detour_side_penalty_m: float = field(default=1.0, metadata=_range(0.0, 100.0))
+    detour_side_penalty_m: float = field(default=1.0, metadata=field_range(0.0, 100.0))
     """Added to guide paths that pass the obstacle on the other side than the previous detour
     (keeps the robot from dithering between going left and right of an obstacle)."""
-    slowdown_lookahead_m: float = field(default=0.6, metadata=_range(0.0, 10.0))
+    slowdown_lookahead_m: float = field(default=0.6, metadata=field_range(0.0, 10.0))
     """The obstacle slowdown reads the chosen arc's clearance over this first stretch of it."""
 
     def __post_init__(self) -> None:
-        for spec in dataclasses.fields(self):
-            value = getattr(self, spec.name)
-            if isinstance(value, bool) or not isinstance(value, (int, float)):
-                raise InvalidInputError(f"PlannerConfig.{spec.name} must be a number, got {value!r}")
-            if not math.isfinite(float(value)):
-                raise InvalidInputError(f"PlannerConfig.{spec.name} must be finite, got {value!r}")
-            if spec.type in ("int", int) and not isinstance(value, int):
-                raise InvalidInputError(f"PlannerConfig.{spec.name} must be an integer, got {value!r}")
-            lo, hi, _, _ = spec.metadata["range"]
-            if not lo <= value <= hi:
-                raise InvalidInputError(f"PlannerConfig.{spec.name} must lie in [{lo}, {hi}], got {value!r}")
+        problem = field_problem(self)
+        if problem is not None:
+            raise InvalidInputError(f"PlannerConfig.{problem}")
         if self.min_speed_mps > self.max_speed_mps:
             raise InvalidInputError("PlannerConfig.min_speed_mps must not exceed max_speed_mps")
         if self.depth_min_m >= self.depth_max_m:
@@ -319,11 +308,6 @@ def arc_points(*, curvature_1pm: npt.ArrayLike, arclength_m: npt.ArrayLike) -> F
     x = s * np.sinc(kappa * s / np.pi)
     y = s * np.sin(half_turn) * np.sinc(half_turn / np.pi)
     return np.stack(np.broadcast_arrays(x, y), axis=-1)
-
-
-def wrap_angle(angle_rad: npt.ArrayLike) -> FloatArray:
-    """Wrap angles to [-pi, pi)."""
-    return (np.asarray(angle_rad, dtype=float) + np.pi) % (2.0 * np.pi) - np.pi
 
 
 def _pairwise_min_distance(queries: FloatArray, points: FloatArray) -> FloatArray:

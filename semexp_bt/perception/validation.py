@@ -21,22 +21,22 @@ from __future__ import annotations
 from dataclasses import replace
 
 from semexp_bt.core.geometry import check_box
-from semexp_bt.core.types import (
-    Detection,
-    InvalidInputError,
-    SceneEvidence,
-    require_finite,
-    require_unit_interval,
-)
+from semexp_bt.core.types import Detection, InvalidInputError, SceneEvidence, require_finite
 from semexp_bt.perception.interface import PerceptionResult
 
 #: Proposal kinds the arbitration knows.
 PROPOSAL_KINDS = ("object", "direction")
 
 
+def _require_unit_interval(name: str, value: float) -> None:
+    require_finite(name, value)
+    if not 0.0 <= float(value) <= 1.0:
+        raise InvalidInputError(f"{name} must lie in [0, 1], got {value!r}")
+
+
 def check_scene(scene: SceneEvidence) -> None:
     """Raise :class:`InvalidInputError` naming the field when the VLM reply is not usable evidence."""
-    require_unit_interval("scene.scene_confidence", scene.scene_confidence)
+    _require_unit_interval("scene.scene_confidence", scene.scene_confidence)
     for i, proposal in enumerate(scene.proposals):
         if not isinstance(proposal.label, str):
             raise InvalidInputError(f"scene.proposals[{i}].label must be text, got {proposal.label!r}")
@@ -59,7 +59,7 @@ def check_detections(detections: tuple[Detection, ...]) -> None:
         if not isinstance(detection.label, str):
             raise InvalidInputError(f"detections[{i}].label must be text, got {detection.label!r}")
         check_box(f"detections[{i}].box_xyxy_px", detection.box_xyxy_px)
-        require_unit_interval(f"detections[{i}].confidence", detection.confidence)
+        _require_unit_interval(f"detections[{i}].confidence", detection.confidence)
 
 
 def screen_result(result: PerceptionResult) -> PerceptionResult:

@@ -25,14 +25,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
+from semexp_bt.core.bounds import field_range
 from semexp_bt.core.config import ConfigError, config_from_dict
 from trees.yaml_source import YamlSourceError, load_yaml_file
 
 PerceptionSourceName = Literal["vlm", "detector", "both"]
-
-
-def _range(lo: float, hi: float, *, lo_open: bool = False, hi_open: bool = False) -> dict[str, Any]:
-    return {"range": (lo, hi, lo_open, hi_open)}
 
 
 class FaultSpecError(ConfigError):
@@ -48,9 +45,9 @@ class FaultSpecError(ConfigError):
 class CameraDropParams:
     """Frames the camera never delivers: readers get the newest frame that did arrive (an old stamp)."""
 
-    drop_probability: float = field(default=1.0, metadata=_range(0.0, 1.0))
+    drop_probability: float = field(default=1.0, metadata=field_range(0.0, 1.0))
     """Probability that each frame slot is lost (1: the camera is silent for the whole fault)."""
-    frame_rate_hz: float = field(default=30.0, metadata=_range(1.0, 1000.0))
+    frame_rate_hz: float = field(default=30.0, metadata=field_range(1.0, 1000.0))
     """The camera's frame rate: frame slots fall every 1 / rate seconds."""
 
 
@@ -65,9 +62,9 @@ class DepthCorruptParams:
 
     value: Literal["zero", "nan"] = "nan"
     """``zero``: no return (how a RealSense reports a hole); ``nan``: garbage the driver let through."""
-    patches: int = field(default=4, metadata=_range(1, 100))
+    patches: int = field(default=4, metadata=field_range(1, 100))
     """Patches per frame, placed anew on each frame."""
-    patch_size_frac: float = field(default=0.3, metadata=_range(0.01, 1.0))
+    patch_size_frac: float = field(default=0.3, metadata=field_range(0.01, 1.0))
     """Each patch's width and height as a fraction of the image's."""
 
 
@@ -75,11 +72,11 @@ class DepthCorruptParams:
 class OdometryJumpParams:
     """The odometry frame jumps once, at the fault's start, and keeps the offset (nothing corrects it)."""
 
-    dx_m: float = field(default=0.5, metadata=_range(-100.0, 100.0))
+    dx_m: float = field(default=0.5, metadata=field_range(-100.0, 100.0))
     """Jump along the map's x axis (m)."""
-    dy_m: float = field(default=0.0, metadata=_range(-100.0, 100.0))
+    dy_m: float = field(default=0.0, metadata=field_range(-100.0, 100.0))
     """Jump along the map's y axis (m)."""
-    dyaw_deg: float = field(default=0.0, metadata=_range(-180.0, 180.0))
+    dyaw_deg: float = field(default=0.0, metadata=field_range(-180.0, 180.0))
     """Heading jump, about where the robot stood (degrees)."""
 
 
@@ -87,11 +84,11 @@ class OdometryJumpParams:
 class OdometryDriftParams:
     """The odometry frame drifts for the fault's duration and keeps the accumulated offset afterwards."""
 
-    vx_mps: float = field(default=0.05, metadata=_range(-10.0, 10.0))
+    vx_mps: float = field(default=0.05, metadata=field_range(-10.0, 10.0))
     """Drift rate along the map's x axis (m/s)."""
-    vy_mps: float = field(default=0.0, metadata=_range(-10.0, 10.0))
+    vy_mps: float = field(default=0.0, metadata=field_range(-10.0, 10.0))
     """Drift rate along the map's y axis (m/s)."""
-    yaw_degps: float = field(default=2.0, metadata=_range(-360.0, 360.0))
+    yaw_degps: float = field(default=2.0, metadata=field_range(-360.0, 360.0))
     """Heading drift rate, about where the robot stood when the drift began (degrees per second)."""
 
 
@@ -99,11 +96,11 @@ class OdometryDriftParams:
 class ImuSpikeParams:
     """Single IMU readings with a large spurious rate and acceleration (a loose connector, EMI)."""
 
-    probability: float = field(default=0.2, metadata=_range(0.0, 1.0))
+    probability: float = field(default=0.2, metadata=field_range(0.0, 1.0))
     """Probability that each reading carries a spike."""
-    gyro_radps: float = field(default=30.0, metadata=_range(0.0, 1e4))
+    gyro_radps: float = field(default=30.0, metadata=field_range(0.0, 1e4))
     """Magnitude added to the angular velocity, in a random direction (rad/s)."""
-    accel_mps2: float = field(default=100.0, metadata=_range(0.0, 1e4))
+    accel_mps2: float = field(default=100.0, metadata=field_range(0.0, 1e4))
     """Magnitude added to the linear acceleration, in a random direction (m/s^2)."""
 
 
@@ -111,7 +108,7 @@ class ImuSpikeParams:
 class CommandsIgnoredParams:
     """The robot drops every command (twist, joint targets, stop): the command link is down."""
 
-    robot_watchdog_s: float = field(default=0.5, metadata=_range(0.0, 60.0))
+    robot_watchdog_s: float = field(default=0.5, metadata=field_range(0.0, 60.0))
     """The robot's own controller stops the base this long after the last command it accepted (the
     command watchdog of the Go1's controller and of ROS 2 drivers)."""
 
@@ -133,7 +130,7 @@ class PerceptionLateParams:
 
     source: PerceptionSourceName = "both"
     """Which model answers late."""
-    delay_s: float = field(default=30.0, metadata=_range(0.0, 1e5))
+    delay_s: float = field(default=30.0, metadata=field_range(0.0, 1e5))
     """Added to the reply's latency (robot-clock seconds)."""
 
 
@@ -149,7 +146,7 @@ class PerceptionErrorParams:
 class ClockJumpParams:
     """The robot clock jumps (a time source resynchronised); sensor stamps jump with it."""
 
-    jump_s: float = field(default=30.0, metadata=_range(-1e6, 1e6))
+    jump_s: float = field(default=30.0, metadata=field_range(-1e6, 1e6))
     """The jump (s); negative jumps go back in time. The clock jumps back when the fault ends."""
 
 

@@ -1,29 +1,17 @@
-"""Controlled-growth semantic topological memory (paper Sec. III-D, Eq. 5-7).
+"""The topological memory G = (V, E) itself: growth (Eq. 6), potentials (Eq. 7), maintenance and travel
+costs (paper Sec. III-D).
 
-The memory is a :class:`networkx.Graph` whose nodes are revisitable 3D locations in ``map`` carrying a
-semantic label, a fused confidence C_f and an exploration potential P_explore; edges carry a traversal
-``cost`` (Euclidean distance, metres). Growth is controlled by the gate of Eq. 6: an observation becomes
-a new node only if it lies farther than ``delta_d`` from every node *and* its fused confidence exceeds
-``cf_gate``; otherwise it is merged into its nearest node (confidence EMA with factor ``rho``) or, when it
-is far from every node but not confident enough, rejected. Potentials decay by Eq. 7 when a node is
-visited or its surroundings are observed, and a periodic maintenance pass prunes nodes that are both
-spent (low potential) and unreliable (low confidence) and merges edge-connected neighbours with the same
-label.
+:class:`TopologicalMemory` keeps the graph and its node attributes; every position query goes through
+its spatial index (:mod:`semexp_bt.core.memory.spatial_index`), so an update costs time proportional to
+the number of nodes near the observation, never to the size of the memory. Maintenance is incremental:
+it examines only nodes touched since its last run, which finds exactly what a full scan would find (see
+:meth:`TopologicalMemory.maintain`). The invariants the class keeps are listed in the package docstring
+and checked by :meth:`TopologicalMemory.check_invariants`.
 
-Every rule the paper leaves open is decided and justified in ``docs/memory.md``. The invariants the
-class keeps (checked by :meth:`TopologicalMemory.check_invariants`):
-
-* no two nodes are within ``delta_d`` of each other, which bounds the node count by a packing argument;
-* the graph stays connected (insertion always links the new node; removals reconnect the neighbours);
-* confidences and potentials stay in [0, 1]; nothing non-finite ever enters the graph.
-
-Queries go through a uniform-grid spatial hash, so an update costs time proportional to the number of
-nodes near the observation, never to the size of the memory. Maintenance is incremental: it examines only
-nodes touched since its last run, which finds exactly what a full scan would find (see
-:meth:`TopologicalMemory.maintain`).
-
-The graph is exposed as :attr:`TopologicalMemory.graph` for reading (Dijkstra, drawing, export); mutate it
-only through this class, or the spatial index goes stale. The class is not thread-safe.
+Snapshots (:meth:`TopologicalMemory.snapshot`, :meth:`TopologicalMemory.from_snapshot`) use the format of
+:mod:`semexp_bt.core.memory.snapshot`. The graph is exposed as :attr:`TopologicalMemory.graph` for
+reading (Dijkstra, drawing, export); mutate it only through this class, or the spatial index goes stale.
+The class is not thread-safe.
 
 This is a core module: it imports only the standard library, numpy and networkx.
 """
@@ -32,46 +20,25 @@ from __future__ import annotations
 
 import heapq
 import math
-from collections.abc import Iterable, Iterator
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any, Literal
 
 import networkx as nx
 import numpy as np
-import numpy.typing as npt
 
 from semexp_bt.core.config import MemoryConfig
-from semexp_bt.core.types import InvalidInputError, NodeState, require_finite
+from semexp_bt.core.memory.inputs import as_label, as_number, as_position, as_unit
+from semexp_bt.core.memory.snapshot import read_snapshot, write_snapshot
+from semexp_bt.core.memory.spatial_index import SpatialIndex, Vec3
+from semexp_bt.core.types import InvalidInputError, NodeState
 
-Vec3 = tuple[float, float, float]
-CellKey = tuple[int, int, int]
 TravelMode = Literal["graph", "euclidean"]
 
-#: Version of the dictionary written by :meth:`TopologicalMemory.snapshot`.
-SNAPSHOT_VERSION = 1
-#: Tag that identifies a memory snapshot.
-SNAPSHOT_FORMAT = "semexp_bt.core.memory"
 #: Smallest grid cell (m); guards against a degenerate cell when delta_d and delta_r are tiny.
 MIN_CELL_M = 0.05
-#: A grid query that would visit more cells than this falls back to one vectorised scan of all nodes
-#: (a sparse memory queried far from its nodes: scanning empty cells would cost more than the scan).
-MAX_GRID_CELLS_PER_QUERY = 1500
-#: Below this many nodes a plain scan is as cheap as the grid.
-LINEAR_SCAN_MAX_NODES = 32
 #: The lazy eviction heap is rebuilt when it holds more than this many entries per live node.
 EVICTION_HEAP_SLACK = 3
-
-_ATTR_KEYS = (
-    "position",
-    "label",
-    "confidence",
-    "potential",
-    "visits",
-    "is_master",
-    "created_s",
-    "updated_s",
-    "observations",
-)
 
 
 class UnknownNodeError(InvalidInputError, KeyError):
@@ -133,183 +100,8 @@ class MemoryUpdate:
     maintenance: MaintenanceReport | None = None
 
 
-_REAL_TYPES = (int, float, np.integer, np.floating)
-
-
-def _as_position(name: str, value: Any) -> Vec3:
-    if (
-        isinstance(value, (tuple, list))
-        and len(value) == 3
-        and all(isinstance(v, _REAL_TYPES) for v in value)
-    ):
-        x, y, z = float(value[0]), float(value[1]), float(value[2])  # the hot path: no numpy round trip
-        if math.isfinite(x) and math.isfinite(y) and math.isfinite(z):
-            return (x, y, z)
-        raise InvalidInputError(f"{name} must be finite, got {value!r}")
-    try:
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise InvalidInputError(f"{name} must be three numbers (x, y, z) in metres, got {value!r}") from exc
-    if arr.shape != (3,):
-        raise InvalidInputError(f"{name} must have shape (3,) (x, y, z in metres), got shape {arr.shape}")
-    require_finite(name, arr)
-    return (float(arr[0]), float(arr[1]), float(arr[2]))
-
-
-def _as_number(name: str, value: Any) -> float:
-    if isinstance(value, bool) or not isinstance(value, _REAL_TYPES):
-        raise InvalidInputError(f"{name} must be a number, got {value!r}")
-    number = float(value)
-    if not math.isfinite(number):
-        raise InvalidInputError(f"{name} must be finite, got {value!r}")
-    return number
-
-
-def _as_unit(name: str, value: Any) -> float:
-    number = _as_number(name, value)
-    if not 0.0 <= number <= 1.0:
-        raise InvalidInputError(f"{name} must lie in [0, 1], got {value!r}")
-    return number
-
-
-def _as_label(name: str, value: Any) -> str:
-    if not isinstance(value, str) or not value.strip():
-        raise InvalidInputError(f"{name} must be a non-empty string, got {value!r}")
-    return value.strip()
-
-
 def _clamp_unit(value: float) -> float:
     return 0.0 if value < 0.0 else 1.0 if value > 1.0 else value
-
-
-class _SpatialGrid:
-    """Uniform-grid spatial hash: cell key -> ids of the nodes whose position falls in that cell.
-
-    The bounding box of the cells ever occupied is tracked (it only grows) so that queries clip their
-    cell ranges to it: indoor memories are a few cells thick in z, so a 3D query costs about as much as
-    a 2D one.
-    """
-
-    def __init__(self, cell_m: float) -> None:
-        self.cell_m = cell_m
-        self._inv = 1.0 / cell_m
-        self.cells: dict[CellKey, set[int]] = {}
-        self.lo = [math.inf, math.inf, math.inf]
-        self.hi = [-math.inf, -math.inf, -math.inf]
-
-    def key(self, p: Vec3) -> CellKey:
-        inv = self._inv
-        return (math.floor(p[0] * inv), math.floor(p[1] * inv), math.floor(p[2] * inv))
-
-    def insert(self, node_id: int, p: Vec3) -> None:
-        k = self.key(p)
-        bucket = self.cells.get(k)
-        if bucket is None:
-            self.cells[k] = {node_id}
-            for axis in range(3):
-                if k[axis] < self.lo[axis]:
-                    self.lo[axis] = k[axis]
-                if k[axis] > self.hi[axis]:
-                    self.hi[axis] = k[axis]
-        else:
-            bucket.add(node_id)
-
-    def remove(self, node_id: int, p: Vec3) -> None:
-        k = self.key(p)
-        bucket = self.cells[k]
-        bucket.discard(node_id)
-        if not bucket:
-            del self.cells[k]
-
-    def move(self, node_id: int, old: Vec3, new: Vec3) -> None:
-        if self.key(old) != self.key(new):
-            self.remove(node_id, old)
-            self.insert(node_id, new)
-
-    def box_cells(self, p: Vec3, radius: float) -> tuple[range, range, range] | None:
-        """Cell index ranges covering the ball (p, radius), clipped to the occupied box; None if empty."""
-        inv = self._inv
-        ranges = []
-        for axis in range(3):
-            lo = max(math.floor((p[axis] - radius) * inv), self.lo[axis])
-            hi = min(math.floor((p[axis] + radius) * inv), self.hi[axis])
-            if lo > hi:
-                return None
-            ranges.append(range(int(lo), int(hi) + 1))
-        return ranges[0], ranges[1], ranges[2]
-
-    def shell(self, c: CellKey, r: int) -> Iterator[set[int]]:
-        """Buckets of the cells at Chebyshev distance exactly ``r`` from cell ``c``, inside the box."""
-        cells = self.cells
-        if r == 0:
-            bucket = cells.get(c)
-            if bucket:
-                yield bucket
-            return
-        cx, cy, cz = c
-        x_lo, x_hi = max(cx - r, self.lo[0]), min(cx + r, self.hi[0])
-        y_lo, y_hi = max(cy - r, self.lo[1]), min(cy + r, self.hi[1])
-        z_lo, z_hi = max(cz - r, self.lo[2]), min(cz + r, self.hi[2])
-        if x_lo > x_hi or y_lo > y_hi or z_lo > z_hi:
-            return
-        full_z = range(int(z_lo), int(z_hi) + 1)
-        cap_z = [z for z in (cz - r, cz + r) if z_lo <= z <= z_hi]
-        all_y = range(int(y_lo), int(y_hi) + 1)
-        face_y = [y for y in (cy - r, cy + r) if y_lo <= y <= y_hi]
-        for i in range(int(x_lo), int(x_hi) + 1):
-            if abs(i - cx) == r:  # an x face: the whole clipped square
-                rows: Iterable[tuple[int, Iterable[int]]] = ((j, full_z) for j in all_y)
-            elif cap_z:  # inside: the y faces plus the z caps of the other rows
-                rows = ((j, full_z if abs(j - cy) == r else cap_z) for j in all_y)
-            else:  # the z caps are clipped away: only the y faces remain
-                rows = ((j, full_z) for j in face_y)
-            for j, zs in rows:
-                for k in zs:
-                    bucket = cells.get((i, j, k))
-                    if bucket:
-                        yield bucket
-
-    def clipped_cube_cells(self, c: CellKey, r: int) -> int:
-        """How many cells of the cube of Chebyshev radius ``r`` around ``c`` lie inside the box."""
-        count = 1
-        for axis in range(3):
-            count *= max(0, int(min(c[axis] + r, self.hi[axis]) - max(c[axis] - r, self.lo[axis])) + 1)
-        return count
-
-
-class _PointStore:
-    """Node positions in one contiguous numpy array, for vectorised whole-memory distance queries."""
-
-    def __init__(self, capacity: int = 1024) -> None:
-        self.xyz = np.zeros((capacity, 3))
-        self.ids = np.full(capacity, -1, dtype=np.int64)
-        self.slot_of: dict[int, int] = {}
-        self._free: list[int] = list(range(capacity - 1, -1, -1))
-
-    def add(self, node_id: int, p: Vec3) -> None:
-        if not self._free:
-            old = len(self.ids)
-            self.xyz = np.concatenate([self.xyz, np.zeros((old, 3))])
-            self.ids = np.concatenate([self.ids, np.full(old, -1, dtype=np.int64)])
-            self._free = list(range(2 * old - 1, old - 1, -1))
-        slot = self._free.pop()
-        self.slot_of[node_id] = slot
-        self.xyz[slot] = p
-        self.ids[slot] = node_id
-
-    def remove(self, node_id: int) -> None:
-        slot = self.slot_of.pop(node_id)
-        self.ids[slot] = -1
-        self._free.append(slot)
-
-    def move(self, node_id: int, p: Vec3) -> None:
-        self.xyz[self.slot_of[node_id]] = p
-
-    def distances(self, p: Vec3) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64]]:
-        live = self.ids >= 0
-        ids = self.ids[live]
-        d = np.sqrt(((self.xyz[live] - np.asarray(p)) ** 2).sum(axis=1))
-        return ids, d
 
 
 class TopologicalMemory:
@@ -336,9 +128,8 @@ class TopologicalMemory:
         # The two hot queries have radius delta_d (the gate) and delta_r (the edges); a cell of at least
         # delta_r / 2 keeps the edge query to at most 5 cells per axis without crowding the gate query.
         self.cell_m = max(self.config.delta_d, self.config.delta_r / 2.0, MIN_CELL_M)
-        self._grid = _SpatialGrid(self.cell_m)
-        self._store = _PointStore()
-        self._pos: dict[int, Vec3] = {}
+        self._index = SpatialIndex(self.cell_m)
+        self._pos: Mapping[int, Vec3] = self._index.positions  # read-only: the index keeps it
         self._attrs: dict[int, dict[str, Any]] = {}
         self._next_id = 0
         self._master_id: int | None = None
@@ -374,7 +165,7 @@ class TopologicalMemory:
         Args:
             min_potential: lower bound on P_explore (inclusive), e.g. tau_p of Eq. 8.
         """
-        threshold = _as_number("min_potential", min_potential)
+        threshold = as_number("min_potential", min_potential)
         attrs = self._attrs
         return [self._state(n) for n in sorted(attrs) if attrs[n]["potential"] >= threshold]
 
@@ -383,16 +174,16 @@ class TopologicalMemory:
 
         Ties are broken by the lower node id.
         """
-        found = self._k_nearest(_as_position("position_m", position_m), 1)
+        found = self._index.k_nearest(as_position("position_m", position_m), 1)
         return (found[0][1], found[0][0]) if found else None
 
     def within_radius(self, *, position_m: Any, radius_m: float) -> list[int]:
         """Ids of the nodes within ``radius_m`` (inclusive) of a point, nearest first."""
-        p = _as_position("position_m", position_m)
-        radius = _as_number("radius_m", radius_m)
+        p = as_position("position_m", position_m)
+        radius = as_number("radius_m", radius_m)
         if radius < 0.0:
             raise InvalidInputError(f"radius_m must be >= 0, got {radius_m!r}")
-        return [n for _, n in self._within(p, radius)]
+        return [n for _, n in self._index.within(p, radius)]
 
     # ------------------------------------------------------------------ growth (Eq. 6)
 
@@ -425,14 +216,14 @@ class TopologicalMemory:
         Raises:
             InvalidInputError: on bad input, or if a master already exists.
         """
-        p = _as_position("position_m", position_m)
-        stamp = _as_number("stamp_s", stamp_s)
-        name = _as_label("label", label)
-        conf = _as_unit("confidence", confidence)
-        pot = _as_unit("potential", potential)
+        p = as_position("position_m", position_m)
+        stamp = as_number("stamp_s", stamp_s)
+        name = as_label("label", label)
+        conf = as_unit("confidence", confidence)
+        pot = as_unit("potential", potential)
         if self._master_id is not None:
             raise InvalidInputError(f"the memory already has a master node (id {self._master_id})")
-        if self._within(p, self.config.delta_d):
+        if self._index.within(p, self.config.delta_d):
             raise InvalidInputError(
                 f"position_m {p} lies within delta_d={self.config.delta_d} m of an existing node; "
                 "add the master before any observation"
@@ -469,10 +260,10 @@ class TopologicalMemory:
             InvalidInputError: naming the field, on a non-finite position, stamp or confidence, a
                 confidence outside [0, 1], or an empty label. The memory is unchanged.
         """
-        p = _as_position("position_m", position_m)
-        name = _as_label("label", label)
-        c_f = _as_unit("confidence", confidence)
-        stamp = _as_number("stamp_s", stamp_s)
+        p = as_position("position_m", position_m)
+        name = as_label("label", label)
+        c_f = as_unit("confidence", confidence)
+        stamp = as_number("stamp_s", stamp_s)
         cfg = self.config
 
         maintenance = None
@@ -480,15 +271,15 @@ class TopologicalMemory:
             maintenance = self.maintain()
         self._updates_since_maintenance += 1
 
-        close = self._within(p, cfg.delta_d)
+        close = self._index.within(p, cfg.delta_d)
         if close:
             d_nn, target = close[0]
             return self._merge_observation(target, p, name, c_f, stamp, d_nn, maintenance)
         # Most updates merge, so the wider edge query runs only when the gate did not merge.
-        close = self._within(p, cfg.delta_r) if cfg.delta_r > cfg.delta_d else []
+        close = self._index.within(p, cfg.delta_r) if cfg.delta_r > cfg.delta_d else []
 
         if c_f <= cfg.cf_gate:
-            nn = close[0] if close else (self._k_nearest(p, 1) or [(math.inf, -1)])[0]
+            nn = close[0] if close else (self._index.k_nearest(p, 1) or [(math.inf, -1)])[0]
             return MemoryUpdate(
                 action="rejected",
                 node_id=None,
@@ -504,7 +295,7 @@ class TopologicalMemory:
         node_id = self._add_node(p, label=name, confidence=c_f, potential=c_f, stamp=stamp, is_master=False)
         within_r = [n for _, n in close]
         if not within_r:
-            knn = self._k_nearest(p, cfg.k_nearest + 1)
+            knn = self._index.k_nearest(p, cfg.k_nearest + 1)
             within_r = [n for _, n in knn if n != node_id][: cfg.k_nearest]
             if within_r:
                 d_nn = min(math.dist(p, self._pos[n]) for n in within_r)
@@ -533,11 +324,11 @@ class TopologicalMemory:
         Returns:
             The ids of the decayed nodes, in increasing order.
         """
-        p = _as_position("robot_position_m", robot_position_m)
-        radius = self.config.observe_radius_m if radius_m is None else _as_number("radius_m", radius_m)
+        p = as_position("robot_position_m", robot_position_m)
+        radius = self.config.observe_radius_m if radius_m is None else as_number("radius_m", radius_m)
         if radius < 0.0:
             raise InvalidInputError(f"radius_m must be >= 0, got {radius_m!r}")
-        decayed = sorted(n for _, n in self._within(p, radius))
+        decayed = sorted(n for _, n in self._index.within(p, radius))
         for n in decayed:
             self._decay(n)
         return decayed
@@ -551,7 +342,7 @@ class TopologicalMemory:
     def scale_potential(self, *, node_id: int, factor: float) -> None:
         """Multiply a node's potential by ``factor`` in [0, 1] (recovery lowers an unreachable subgoal)."""
         n = self._require_node(node_id)
-        f = _as_unit("factor", factor)
+        f = as_unit("factor", factor)
         attrs = self._attrs[n]
         attrs["potential"] = _clamp_unit(attrs["potential"] * f)
         self._touch(n)
@@ -560,7 +351,7 @@ class TopologicalMemory:
         """Raise a node's potential to ``at_least`` in [0, 1] if it is lower (new evidence revives a node
         that decay or recovery had spent). Returns whether the potential changed."""
         n = self._require_node(node_id)
-        floor = _as_unit("at_least", at_least)
+        floor = as_unit("at_least", at_least)
         attrs = self._attrs[n]
         if attrs["potential"] >= floor:
             return False
@@ -637,50 +428,31 @@ class TopologicalMemory:
         Returns:
             node id -> cost in metres; empty when the memory is empty.
         """
-        p = _as_position("from_position_m", from_position_m)
+        p = as_position("from_position_m", from_position_m)
         if mode not in ("graph", "euclidean"):
             raise InvalidInputError(f"mode must be 'graph' or 'euclidean', got {mode!r}")
         if not self._attrs:
             return {}
         if mode == "euclidean":
-            ids, dist = self._store.distances(p)
+            ids, dist = self._index.distances(p)
             return dict(zip(ids.tolist(), dist.tolist(), strict=True))
-        d_entry, entry = self._k_nearest(p, 1)[0]
+        d_entry, entry = self._index.k_nearest(p, 1)[0]
         lengths = self._dijkstra(entry)
         return {n: d_entry + lengths[n] if n in lengths else math.inf for n in self._attrs}
 
     # ------------------------------------------------------------------ persistence
 
     def snapshot(self) -> dict[str, Any]:
-        """A JSON-serialisable dictionary of the whole memory state (nodes, edges, bookkeeping)."""
-        nodes = []
-        for n in sorted(self._attrs):
-            a = self._attrs[n]
-            nodes.append(
-                {
-                    "id": n,
-                    "position": list(a["position"]),
-                    "label": a["label"],
-                    "confidence": a["confidence"],
-                    "potential": a["potential"],
-                    "visits": a["visits"],
-                    "is_master": a["is_master"],
-                    "created_s": a["created_s"],
-                    "updated_s": a["updated_s"],
-                    "observations": a["observations"],
-                }
-            )
-        edges = sorted([min(u, v), max(u, v), c] for u, v, c in self.graph.edges(data="cost"))
-        return {
-            "format": SNAPSHOT_FORMAT,
-            "version": SNAPSHOT_VERSION,
-            "next_id": self._next_id,
-            "master_id": self._master_id,
-            "updates_since_maintenance": self._updates_since_maintenance,
-            "pending_maintenance": sorted(self._dirty),
-            "nodes": nodes,
-            "edges": edges,
-        }
+        """A JSON-serialisable dictionary of the whole memory state (nodes, edges, bookkeeping); see
+        :mod:`semexp_bt.core.memory.snapshot` for the format."""
+        return write_snapshot(
+            attrs=self._attrs,
+            graph=self.graph,
+            next_id=self._next_id,
+            master_id=self._master_id,
+            updates_since_maintenance=self._updates_since_maintenance,
+            pending_maintenance=self._dirty,
+        )
 
     @classmethod
     def from_snapshot(cls, data: Any, config: MemoryConfig | None = None) -> TopologicalMemory:
@@ -692,80 +464,16 @@ class TopologicalMemory:
             InvalidInputError: naming the key, on a malformed snapshot (wrong format or version, missing
                 key, non-finite or out-of-range value, duplicate id, edge to an unknown node).
         """
-        if not isinstance(data, dict):
-            raise InvalidInputError(f"snapshot must be a mapping, got {type(data).__name__}")
-        for key in ("format", "version", "next_id", "master_id", "nodes", "edges"):
-            if key not in data:
-                raise InvalidInputError(f"snapshot: missing key '{key}'")
-        if data["format"] != SNAPSHOT_FORMAT:
-            raise InvalidInputError(f"snapshot.format must be {SNAPSHOT_FORMAT!r}, got {data['format']!r}")
-        if data["version"] != SNAPSHOT_VERSION:
-            raise InvalidInputError(f"snapshot.version must be {SNAPSHOT_VERSION}, got {data['version']!r}")
+        contents = read_snapshot(data)
         memory = cls(config)
-        if not isinstance(data["nodes"], list) or not isinstance(data["edges"], list):
-            raise InvalidInputError("snapshot.nodes and snapshot.edges must be lists")
-        masters = []
-        for i, raw in enumerate(data["nodes"]):
-            where = f"snapshot.nodes[{i}]"
-            if not isinstance(raw, dict):
-                raise InvalidInputError(f"{where} must be a mapping")
-            missing = [k for k in ("id", *_ATTR_KEYS) if k not in raw]
-            if missing:
-                raise InvalidInputError(f"{where}: missing key(s) {missing}")
-            node_id = _as_count(f"{where}.id", raw["id"])
-            if node_id in memory._attrs:
-                raise InvalidInputError(f"{where}.id: duplicate node id {node_id}")
-            if not isinstance(raw["is_master"], bool):
-                raise InvalidInputError(f"{where}.is_master must be a boolean, got {raw['is_master']!r}")
-            memory._insert_node_record(
-                node_id,
-                _as_position(f"{where}.position", raw["position"]),
-                {
-                    "label": _as_label(f"{where}.label", raw["label"]),
-                    "confidence": _as_unit(f"{where}.confidence", raw["confidence"]),
-                    "potential": _as_unit(f"{where}.potential", raw["potential"]),
-                    "visits": _as_count(f"{where}.visits", raw["visits"]),
-                    "is_master": raw["is_master"],
-                    "created_s": _as_number(f"{where}.created_s", raw["created_s"]),
-                    "updated_s": _as_number(f"{where}.updated_s", raw["updated_s"]),
-                    "observations": _as_count(f"{where}.observations", raw["observations"]),
-                },
-            )
-            if raw["is_master"]:
-                masters.append(node_id)
-        master_id = data["master_id"]
-        if masters != ([] if master_id is None else [master_id]):
-            raise InvalidInputError(
-                f"snapshot.master_id ({master_id!r}) does not match the nodes flagged is_master ({masters})"
-            )
-        memory._master_id = master_id
-        for i, raw in enumerate(data["edges"]):
-            where = f"snapshot.edges[{i}]"
-            if not isinstance(raw, (list, tuple)) or len(raw) != 3:
-                raise InvalidInputError(f"{where} must be [u, v, cost]")
-            u, v = _as_count(f"{where}[0]", raw[0]), _as_count(f"{where}[1]", raw[1])
-            if u not in memory._attrs or v not in memory._attrs or u == v:
-                raise InvalidInputError(f"{where}: edge ({u}, {v}) must join two distinct known nodes")
-            cost = _as_number(f"{where}[2]", raw[2])
-            if cost < 0.0:
-                raise InvalidInputError(f"{where}[2]: cost must be >= 0, got {cost}")
+        for record in contents.nodes:
+            memory._insert_node_record(record.node_id, record.position, dict(record.fields))
+        memory._master_id = contents.master_id
+        for u, v, cost in contents.edges:
             memory.graph.add_edge(u, v, cost=cost)
-        next_id = _as_count("snapshot.next_id", data["next_id"])
-        if memory._attrs and next_id <= max(memory._attrs):
-            raise InvalidInputError(f"snapshot.next_id ({next_id}) must exceed every node id")
-        memory._next_id = next_id
-        memory._updates_since_maintenance = _as_count(
-            "snapshot.updates_since_maintenance", data.get("updates_since_maintenance", 0)
-        )
-        pending = data.get("pending_maintenance")
-        if pending is None:
-            memory._dirty = set(memory._attrs)
-        else:
-            if not isinstance(pending, list):
-                raise InvalidInputError("snapshot.pending_maintenance must be a list of node ids")
-            memory._dirty = {
-                _as_count(f"snapshot.pending_maintenance[{i}]", n) for i, n in enumerate(pending)
-            } & set(memory._attrs)
+        memory._next_id = contents.next_id
+        memory._updates_since_maintenance = contents.updates_since_maintenance
+        memory._dirty = contents.pending_maintenance
         return memory
 
     # ------------------------------------------------------------------ diagnostics
@@ -780,19 +488,19 @@ class TopologicalMemory:
         attrs = self._attrs
         if set(attrs) != set(self.graph.nodes) or set(attrs) != set(self._pos):
             raise MemoryInvariantError("node bookkeeping differs from the graph")
-        indexed = [n for bucket in self._grid.cells.values() for n in bucket]
-        if sorted(indexed) != sorted(attrs) or set(self._store.slot_of) != set(attrs):
-            raise MemoryInvariantError("spatial index differs from the graph")
+        index_problem = self._index.consistency_problem()
+        if index_problem is not None:
+            raise MemoryInvariantError(index_problem)
         for n, a in attrs.items():
             p = a["position"]
-            if p != self._pos[n] or n not in self._grid.cells.get(self._grid.key(p), ()):
+            if p != self._pos[n]:
                 raise MemoryInvariantError(f"node {n}: indexed position differs from its attribute")
             if not all(math.isfinite(x) for x in p):
                 raise MemoryInvariantError(f"node {n}: non-finite position {p}")
             for key in ("confidence", "potential"):
                 if not 0.0 <= a[key] <= 1.0:
                     raise MemoryInvariantError(f"node {n}: {key}={a[key]} outside [0, 1]")
-            close = [m for _, m in self._within(p, cfg.delta_d) if m != n]
+            close = [m for _, m in self._index.within(p, cfg.delta_d) if m != n]
             if close:
                 raise MemoryInvariantError(f"nodes {n} and {close[0]} are within delta_d={cfg.delta_d}")
             if a["is_master"] != (n == self._master_id):
@@ -849,18 +557,16 @@ class TopologicalMemory:
     def _insert_node_record(self, node_id: int, p: Vec3, fields: dict[str, Any]) -> None:
         self.graph.add_node(node_id, position=p, **fields)
         self._attrs[node_id] = self.graph.nodes[node_id]
-        self._pos[node_id] = p
-        self._grid.insert(node_id, p)
-        self._store.add(node_id, p)
+        self._index.insert(node_id, p)
         self._version[node_id] = 0
         self._touch(node_id)
 
     def _connect_new(self, node_id: int) -> int:
         """Link a node to every node within delta_r, or to its k nearest if none (Sec. III-D)."""
         p = self._pos[node_id]
-        targets = [n for _, n in self._within(p, self.config.delta_r) if n != node_id]
+        targets = [n for _, n in self._index.within(p, self.config.delta_r) if n != node_id]
         if not targets:
-            knn = self._k_nearest(p, self.config.k_nearest + 1)
+            knn = self._index.k_nearest(p, self.config.k_nearest + 1)
             targets = [n for _, n in knn if n != node_id][: self.config.k_nearest]
         for n in targets:
             self._add_edge(node_id, n)
@@ -873,9 +579,7 @@ class TopologicalMemory:
         return True
 
     def _remove_node(self, n: int) -> None:
-        p = self._pos.pop(n)
-        self._grid.remove(n, p)
-        self._store.remove(n)
+        self._index.remove(n)
         self.graph.remove_node(n)
         del self._attrs[n]
         del self._version[n]
@@ -983,7 +687,7 @@ class TopologicalMemory:
                 old_p[1] + step * (p[1] - old_p[1]),
                 old_p[2] + step * (p[2] - old_p[2]),
             )
-            crowding = [m for _, m in self._within(new_p, cfg.delta_d) if m != n]
+            crowding = [m for _, m in self._index.within(new_p, cfg.delta_d) if m != n]
             if any(self._attrs[m]["label"] != a["label"] for m in crowding):
                 # Moving would crowd a different hypothesis; fusing would lose one label, so stay put.
                 held_still = True
@@ -1016,11 +720,8 @@ class TopologicalMemory:
         )
 
     def _move(self, n: int, new_p: Vec3) -> None:
-        old_p = self._pos[n]
-        self._pos[n] = new_p
+        self._index.move(n, new_p)
         self._attrs[n]["position"] = new_p
-        self._grid.move(n, old_p, new_p)
-        self._store.move(n, new_p)
         for m, edge in self.graph.adj[n].items():
             edge["cost"] = math.dist(new_p, self._pos[m])
 
@@ -1089,74 +790,3 @@ class TopologicalMemory:
                     dist[v] = candidate
                     push(heap, (candidate, v))
         return dist
-
-    def _within(self, p: Vec3, radius: float) -> list[tuple[float, int]]:
-        """``(distance, id)`` of the nodes within ``radius`` (inclusive) of ``p``, nearest first."""
-        pos = self._pos
-        out: list[tuple[float, int]] = []
-        if not pos:
-            return out
-        if len(pos) <= LINEAR_SCAN_MAX_NODES:
-            for n, q in pos.items():
-                d = math.dist(p, q)
-                if d <= radius:
-                    out.append((d, n))
-            out.sort()
-            return out
-        box = self._grid.box_cells(p, radius)
-        if box is None:
-            return out
-        xs, ys, zs = box
-        if len(xs) * len(ys) * len(zs) > MAX_GRID_CELLS_PER_QUERY:
-            ids, dist = self._store.distances(p)
-            hit = dist <= radius
-            out = sorted(zip(dist[hit].tolist(), ids[hit].tolist(), strict=True))
-            return out
-        cells = self._grid.cells
-        for i in xs:
-            for j in ys:
-                for k in zs:
-                    bucket = cells.get((i, j, k))
-                    if bucket:
-                        for n in bucket:
-                            d = math.dist(p, pos[n])
-                            if d <= radius:
-                                out.append((d, n))
-        out.sort()
-        return out
-
-    def _k_nearest(self, p: Vec3, k: int) -> list[tuple[float, int]]:
-        """``(distance, id)`` of the ``k`` nodes nearest to ``p``, nearest first (ties: lower id)."""
-        pos = self._pos
-        if not pos:
-            return []
-        if len(pos) <= LINEAR_SCAN_MAX_NODES:
-            return sorted((math.dist(p, q), n) for n, q in pos.items())[:k]
-        grid = self._grid
-        c = grid.key(p)
-        # Cells at Chebyshev ring r + 1 are at least r * cell_m away, so once the k-th best distance is
-        # within r * cell_m the search can stop. Start at the first ring that reaches the occupied box.
-        r_start = max(0, *(max(grid.lo[a] - c[a], c[a] - grid.hi[a]) for a in range(3)))
-        r_end = max(max(abs(c[a] - grid.lo[a]), abs(c[a] - grid.hi[a])) for a in range(3))
-        heap: list[tuple[float, int]] = []  # max-heap of the best k as (-d, -id)
-        for r in range(int(r_start), int(r_end) + 1):
-            if grid.clipped_cube_cells(c, r) > MAX_GRID_CELLS_PER_QUERY:
-                ids, dist = self._store.distances(p)
-                order = np.lexsort((ids, dist))[:k]
-                return [(float(dist[i]), int(ids[i])) for i in order]
-            for bucket in grid.shell(c, r):
-                for n in bucket:
-                    item = (-math.dist(p, pos[n]), -n)
-                    if len(heap) < k:
-                        heapq.heappush(heap, item)
-                    elif item > heap[0]:
-                        heapq.heapreplace(heap, item)
-            if len(heap) == k and -heap[0][0] <= r * grid.cell_m:
-                break
-        return sorted((-d, -n) for d, n in heap)
-
-
-def _as_count(name: str, value: Any) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
-        raise InvalidInputError(f"{name} must be a non-negative integer, got {value!r}")
-    return int(value)
