@@ -11,7 +11,7 @@ Semantics: every tick, on the robot clock, it checks
 - the IMU, only when a gait policy walks the robot (nothing else reads it): its stamp no older than
   ``imu_deadline_s``, finite readings within ``max_gyro_radps`` and ``max_accel_mps2``;
 - the camera: its stamp no older than ``camera_deadline_s`` and, every ``camera_check_period_s`` while the
-  robot moves or is told to (turning in place aside), a coarse depth sample (:data:`CHECK_GRID`) whose own stamp is no older than
+  robot moves or is told to, a coarse depth sample (:data:`CHECK_GRID`) whose own stamp is no older than
   that (a frozen driver re-sends old frames while its topic looks alive) and whose measured pixels are
   numbers (at most ``max_nonfinite_fraction`` NaN or inf).
 
@@ -53,9 +53,9 @@ from semexp_bt.core.types import PixelGrid, Pose2D, Twist
 #: The depth pixels the guard samples: every 40th row and column (8 x 6 on the Go1's 320 x 240 camera), which
 #: a patch of a tenth of the image covers at least once.
 CHECK_GRID = PixelGrid.centred(40)
-#: Below this commanded and measured speed the robot goes nowhere new (turning in place sweeps no new
-#: ground), so no camera sample is needed (m/s).
+#: The robot counts as still (no camera sample needed) below these commanded and measured speeds.
 STILL_SPEED_MPS = 0.01
+STILL_YAW_RATE_RADPS = 0.01
 #: A clock step this far below zero is a clock running backwards (s; float round-off is below it).
 BACKWARD_TOLERANCE_S = 1e-6
 SENSORS = ("camera", "odometry", "imu")
@@ -229,13 +229,20 @@ class SensorHealthGuard(SemExpBehaviour):
         return None
 
     def _still(self) -> bool:
-        """Whether the robot neither moves nor is told to move (turning in place counts as still: it sweeps
-        no new ground, so a stale camera cannot make it collide)."""
+        """Whether the robot neither moves nor is told to (then a stale camera cannot make it collide)."""
         command = self.read("cmd_twist", Twist.zero())
         twist = self.services.robot.base_twist()
-        return all(
-            abs(v) < STILL_SPEED_MPS
-            for v in (command.linear_x_mps, command.linear_y_mps, twist.linear_x_mps, twist.linear_y_mps)
+        return (
+            all(
+                abs(v) < STILL_SPEED_MPS
+                for v in (
+                    command.linear_x_mps,
+                    command.linear_y_mps,
+                    twist.linear_x_mps,
+                    twist.linear_y_mps,
+                )
+            )
+            and max(abs(command.angular_z_radps), abs(twist.angular_z_radps)) < STILL_YAW_RATE_RADPS
         )
 
     def _camera_sample_problem(self, now: float) -> str | None:

@@ -23,16 +23,20 @@ from tests.behaviours.rig import TICK_S, FakeRobot, Rig
 FORWARD = Twist(linear_x_mps=0.5)
 
 
-def drive(rig: Rig, guard: SensorHealthGuard, until_s: float) -> dict[float, float]:
-    """Command FORWARD and tick until ``until_s`` or the guard ends; the true forward speed by time."""
+def drive(rig: Rig, guard: SensorHealthGuard, until_s: float, twist: Twist = FORWARD) -> dict[float, float]:
+    """Command ``twist`` and tick until ``until_s`` or the guard ends; the true forward speed (the yaw rate
+    for a turn in place) by time."""
     robot = rig.robot
     truth = robot.inner if isinstance(robot, FaultyRobot) else robot
     speeds: dict[float, float] = {}
     while robot.now_s() < until_s - 1e-9:
-        rig.set("cmd_twist", FORWARD)
+        rig.set("cmd_twist", twist)
         rig.set("cmd_stamp_s", robot.now_s())
         status = rig.tick(guard)[0]
-        speeds[round(truth.now_s(), 6)] = truth.base_twist().linear_x_mps
+        measured = truth.base_twist()
+        speeds[round(truth.now_s(), 6)] = (
+            measured.linear_x_mps if twist.linear_x_mps else measured.angular_z_radps
+        )
         if status != Status.RUNNING:
             break
     rig.show(guard)
@@ -113,6 +117,13 @@ def test_a_robot_that_stands_still_is_not_sampled_and_a_new_command_is_checked_f
     assert rig.services.events == []
     speeds = drive(rig, guard, 3.0)
     assert all(v == 0.0 for v in speeds.values())  # the first forward command is checked before it is driven
+
+
+def test_a_robot_turning_in_place_on_a_frozen_camera_is_stopped_too(make_rig: Callable[..., Rig]) -> None:
+    rig, guard = guarded(make_rig, {"class": "camera_freeze", "start_s": 1.0, "duration_s": 2.0})
+    turns = drive(rig, guard, 2.0, twist=Twist(angular_z_radps=0.8))
+    assert turns[0.02] == pytest.approx(0.8)
+    assert all(w == 0.0 for t, w in turns.items() if t >= 1.0 + 0.1 + 2 * TICK_S)
 
 
 def test_an_odometry_jump_ends_the_mission_at_once(make_rig: Callable[..., Rig]) -> None:
