@@ -109,6 +109,12 @@ CASES: tuple[FaultCase, ...] = (
     FaultCase(
         "odometry_drift", (_fault("odometry_drift", duration_s=10.0),), None, "degraded: below detection"
     ),
+    FaultCase(
+        "odometry_slip",
+        (_fault("odometry_drift", duration_s=10.0, vx_mps=0.3, yaw_degps=0.0),),
+        None,
+        "stop: sensor_fault: odometry",
+    ),
     FaultCase("imu_drop", (_fault("imu_drop"),), None, "degraded: no IMU reader in kinematic fidelity"),
     FaultCase("imu_spike", (_fault("imu_spike"),), None, "degraded: no IMU reader in kinematic fidelity"),
     FaultCase(
