@@ -5,8 +5,7 @@ A robot that runs all day runs its missions in one process. The soak runs simula
 cycling through :data:`DEFAULT_SCENES` with rising seeds, until :data:`DEFAULT_SIM_S` of robot time
 have passed. After each mission (and a garbage collection) it records the process's resident memory,
 the topological memory's size at the mission's end, the mission's tick median and p99, the py_trees
-blackboard's size and the live objects of the kinds a leak would pile up (behaviours, MuJoCo models and
-data, cameras).
+blackboard's size and the live objects of the kinds a leak would pile up (:func:`watched_types`).
 
 Floors: resident memory after the last mission within :data:`MAX_RSS_GROWTH` of what it was after the first
 mission (the first mission loads the models and builds the caches a process keeps), and the tick p99 not
@@ -36,14 +35,6 @@ DEFAULT_SIM_S = 3600.0
 MAX_RSS_GROWTH = 0.05
 #: The last third's median tick p99 may exceed the first third's by this fraction.
 P99_TOLERANCE = 0.2
-#: Kinds of object counted after each mission: what a leak would pile up, by qualified class name.
-WATCHED_TYPES = (
-    "py_trees.behaviour.Behaviour",
-    "mujoco._structs.MjModel",
-    "mujoco._structs.MjData",
-    "robots.camera.RgbdCamera",
-    "semexp_bt.core.memory.TopologicalMemory",
-)
 
 
 def resident_bytes() -> int:
@@ -55,15 +46,31 @@ def resident_bytes() -> int:
     return pages * os.sysconf("SC_PAGE_SIZE")
 
 
+def watched_types() -> dict[str, type]:
+    """What a leak would pile up, by name: behaviours, memories, cameras, simulated robots (each robot
+    holds its MuJoCo model and data, which the garbage collector does not track itself)."""
+    from robots.camera import RgbdCamera
+    from robots.mujoco_backend import MujocoRobot
+    from semexp_bt.core.memory import TopologicalMemory
+
+    return {
+        "behaviours": py_trees.behaviour.Behaviour,
+        "topological memories": TopologicalMemory,
+        "cameras": RgbdCamera,
+        "MuJoCo robots": MujocoRobot,
+    }
+
+
 def live_objects() -> dict[str, int]:
-    """How many objects of each :data:`WATCHED_TYPES` kind (or a subclass) are alive."""
-    counts = dict.fromkeys(WATCHED_TYPES, 0)
+    """How many objects of each :func:`watched_types` kind (or a subclass) are alive."""
+    kinds = watched_types()
+    counts = dict.fromkeys(kinds, 0)
+    classes = tuple(kinds.values())
     for obj in gc.get_objects():
-        for klass in type(obj).__mro__:
-            name = f"{klass.__module__}.{klass.__qualname__}"
-            if name in counts:
-                counts[name] += 1
-                break
+        if isinstance(obj, classes):
+            for name, klass in kinds.items():
+                if isinstance(obj, klass):
+                    counts[name] += 1
     return counts
 
 
@@ -189,7 +196,7 @@ def format_table(result: dict[str, Any]) -> str:
         lines.append(
             f"| {m['mission']} | {m['scene']}/{m['seed']} | {m['outcome']} | {m['sim_total_s'] / 60:.1f} | "
             f"{m['tick_p99_ms']:.2f} | {m['memory_nodes']} | {m['rss_mb']:.1f} | "
-            f"{m['live_objects']['py_trees.behaviour.Behaviour']} |"
+            f"{m['live_objects']['behaviours']} |"
         )
     if result["missions"]:
         lines += ["", f"- resident memory growth after the first mission: {100 * result['rss_growth']:.1f} %"]

@@ -1,0 +1,34 @@
+"""The soak benchmark's bookkeeping (the benchmark itself is a command: ``semexp-bt bench soak``)."""
+
+from __future__ import annotations
+
+import py_trees
+
+from semexp_bt.bench.soak import MAX_RSS_GROWTH, live_objects, resident_bytes, summarise
+from semexp_bt.core.config import SemExpConfig
+from semexp_bt.core.memory import TopologicalMemory
+
+
+def mission(index: int, *, rss_mb: float, p99_ms: float) -> dict:
+    return {"mission": index, "scene": "office", "seed": index, "outcome": "success", "sim_total_s": 600.0 * (index + 1),
+            "tick_p99_ms": p99_ms, "memory_nodes": 10, "rss_mb": rss_mb, "live_objects": {"behaviours": 0}}  # fmt: skip
+
+
+def test_the_floors_compare_the_end_with_the_first_mission_and_the_last_third_with_the_first() -> None:
+    steady = summarise([mission(i, rss_mb=500.0 + i, p99_ms=20.0 + (i % 2)) for i in range(6)])
+    assert steady["floors_met"] and steady["rss_growth"] == 0.01
+    assert steady["start"]["tick_p99_ms"] == 20.5 and steady["sim_hours"] == 1.0
+    leaking = summarise([mission(i, rss_mb=500.0 * (1 + MAX_RSS_GROWTH * i), p99_ms=20.0) for i in range(3)])
+    slowing = summarise([mission(i, rss_mb=500.0, p99_ms=20.0 * (1 + 0.2 * i)) for i in range(6)])
+    assert list(leaking["floors"].values()) == [False, True]
+    assert list(slowing["floors"].values()) == [True, False]
+
+
+def test_live_objects_count_what_is_alive() -> None:
+    before = live_objects()
+    kept = [py_trees.behaviours.Success("x"), TopologicalMemory(SemExpConfig().memory)]
+    after = live_objects()
+    assert after["behaviours"] == before["behaviours"] + 1
+    assert after["topological memories"] == before["topological memories"] + 1
+    del kept
+    assert resident_bytes() > 10 * 2**20
