@@ -7,8 +7,9 @@ and reported. Exit status 2 for a file that is missing or has a damaged line bef
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
+
+from semexp_bt.cli.arguments import print_error
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -22,10 +23,10 @@ def run(args: argparse.Namespace) -> int:
     try:
         ticks = replay(args.record, only_changes=not args.all)
     except RecordError as exc:
-        print(f"error: {exc}", file=sys.stderr)
+        print_error(str(exc))
         return 2
     except OSError as exc:
-        print(f"error: {args.record}: cannot read the record: {exc.strerror}", file=sys.stderr)
+        print_error(f"{args.record}: cannot read the record: {exc.strerror}")
         return 2
     print(f"{ticks} ticks")
     return 0
