@@ -40,6 +40,7 @@ Example:
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -49,7 +50,10 @@ from behaviours.base import INSTRUCTED_OBJECT_RELEVANCE, SemExpBehaviour
 from behaviours.spec import param
 from semexp_bt.core.evidence import calibrate, candidate_box
 from semexp_bt.core.geometry import back_project, object_surface_depth
+from semexp_bt.core.memory import TopologicalMemory
+from semexp_bt.core.types import FloatArray, Pose2D
 from semexp_bt.nav.frontier import depth_frontiers
+from semexp_bt.nav.local_map import OccupancyMap
 
 Box = tuple[float, float, float, float]
 
@@ -282,7 +286,7 @@ class UpdateMemory(SemExpBehaviour):
         self.feedback_message = f"{len(memory)} nodes; " + ", ".join(outcomes[:4])
         return py_trees.common.Status.SUCCESS
 
-    def _revive(self, memory, node_id: int, label: str, score: float) -> list[str]:  # type: ignore[no-untyped-def]
+    def _revive(self, memory: TopologicalMemory, node_id: int, label: str, score: float) -> list[str]:
         """Revival (see the module docstring): strong evidence for the instructed object restores its node."""
         if score < self.revive_min_score or self._revivals.get(node_id, 0) >= self.max_revivals:
             return []
@@ -299,7 +303,7 @@ class UpdateMemory(SemExpBehaviour):
         return self.names_instructed_object(label, threshold=0.6)
 
     @staticmethod
-    def _would_relabel(memory, point, label: str) -> bool:  # type: ignore[no-untyped-def]
+    def _would_relabel(memory: TopologicalMemory, point: Sequence[float] | FloatArray, label: str) -> bool:
         """Whether offering a place (a direction, a landmark, a frontier) at ``point`` would merge into a
         nearby node of another label: Eq. 6 relabels a node when the newcomer is more confident, and a
         frontier must never turn a fire-extinguisher node into "unexplored area"."""
@@ -309,7 +313,7 @@ class UpdateMemory(SemExpBehaviour):
         node_id, distance = nearest
         return distance <= memory.config.delta_d and memory.node(node_id).label != label
 
-    def _map_exploration(self, memory, local_map, pose) -> list[str]:  # type: ignore[no-untyped-def]
+    def _map_exploration(self, memory: TopologicalMemory, local_map: OccupancyMap, pose: Pose2D) -> list[str]:
         """Eq. 7 with "surroundings observed" measured on the occupancy map, plus map frontiers as nodes.
 
         A place node (not an instructed object) whose 1 m neighbourhood the map has now mostly seen decays

@@ -191,7 +191,7 @@ def score_view(
         )
 
     for profile in ("detector", "detector_yolo_world"):
-        out = emulate(observation, scene, target_label=target, rng=rng, noise=noise, detector_profile=profile)  # type: ignore[arg-type]
+        out = emulate(observation, scene, target_label=target, rng=rng, noise=noise, detector_profile=profile)
         if out.detections:
             top = max(out.detections, key=lambda d: d.confidence)
             report.add(
@@ -403,8 +403,8 @@ def rendered_views(
     scene bounds, facing it with up to 25 degrees of yaw error; the frame is kept once the subject
     shows at least ``min_pixels`` pixels (up to ``max_tries`` poses per view, else the view is skipped).
     """
-    from robots.mujoco_backend import MujocoRobot  # noqa: PLC0415 - heavy, optional
-    from sims.catalogue import build_scene  # noqa: PLC0415
+    from robots.mujoco_backend import MujocoRobot
+    from sims.catalogue import build_scene
 
     rng = np.random.default_rng(seed)
     for s_index, name in enumerate(scene_names):
@@ -505,7 +505,7 @@ def run(args: argparse.Namespace) -> int:
         views = random_synthetic_views(np.random.default_rng(args.seed), args.views)
         kind = "synthetic"
     else:
-        from sims import catalogue  # noqa: PLC0415
+        from sims import catalogue
 
         names = catalogue.list_scenes() if args.scenes == "all" else [n for n in args.scenes.split(",") if n]
         views = rendered_views(names, views_per_scene=args.views, seed=args.seed)

@@ -112,7 +112,7 @@ class TickRecorder:
         self._last = [node.status for node in self._nodes]
         if self.path is not None:
             Path(self.path).parent.mkdir(parents=True, exist_ok=True)
-            self._file = open(self.path, "w")  # noqa: SIM115 - closed in finish()
+            self._file = open(self.path, "w")
 
     def after_tick(self, run: MissionRun) -> None:
         """Record/show the tick that just ran."""

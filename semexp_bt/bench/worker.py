@@ -29,7 +29,7 @@ ONE_THREAD_ENV = {"OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_
 PARENT_CHECK_S = 1.0
 
 
-class EpisodeTimeout(BaseException):  # noqa: N818 - a BaseException so `except Exception` in an episode cannot swallow it
+class EpisodeTimeout(BaseException):
     """Raised inside a worker when the episode exceeds its wall-time limit."""
 
 

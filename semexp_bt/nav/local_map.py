@@ -193,7 +193,7 @@ class OccupancyMap:
         centres = self.centre_of(np.stack([rows + lo[0], cols + lo[1]], axis=1))
         return float(min(2.0, np.min(np.hypot(centres[:, 0] - xy[0], centres[:, 1] - xy[1]))))
 
-    def known_fraction(self, xy: FloatArray, *, radius_m: float) -> float:
+    def known_fraction(self, xy: npt.ArrayLike, *, radius_m: float) -> float:
         """Share of the cells within ``radius_m`` of ``xy`` that some ray has observed."""
         cell = self.cell_of(np.asarray(xy, dtype=float))
         reach = int(math.ceil(radius_m / self.config.resolution_m))
@@ -206,7 +206,7 @@ class OccupancyMap:
         return float(known[disc].mean()) if disc.any() else 0.0
 
     def frontiers(
-        self, around_xy: FloatArray, *, radius_m: float, min_cells: int = 6
+        self, around_xy: npt.ArrayLike, *, radius_m: float, min_cells: int = 6
     ) -> list[tuple[float, float, int]]:
         """Frontier clusters near ``around_xy``: seen-free cells the robot could stand on that border cells
         no ray has reached. Returns ``(x, y, cells)`` per cluster, at the cluster's cell nearest its centroid."""
