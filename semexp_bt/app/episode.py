@@ -19,7 +19,7 @@ import time
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, TextIO, cast
+from typing import TYPE_CHECKING, Any, TextIO, cast
 
 import numpy as np
 
@@ -42,6 +42,9 @@ from sims.episodes import Episode, sample_episode
 from sims.geodesic import GeodesicOracle
 from trees.loader import parse_mission
 
+if TYPE_CHECKING:
+    from semexp_bt.perception.model_config import ModelsProfile
+
 #: ``trajectory_xy`` keeps a base position each time the robot has moved this far (m) since the last kept one.
 TRAJECTORY_STEP_M = 0.1
 #: A memory node lies on the object it describes (a blocked cell); the oracle measures from the nearest
@@ -62,7 +65,11 @@ class EpisodeOptions:
         instruction: overrides the mission's/scene's instruction.
         fidelity: ``kinematic`` or ``dynamic``; None takes the mission's setting.
         strategy: a named strategy (``ours`` by default) from ``semexp_bt/app/strategies.yaml``.
-        relevance: ``embedding`` (default, offline MiniLM) or ``lexical`` (no torch).
+        relevance: ``embedding`` (default, offline MiniLM), ``lexical`` (no torch) or ``llm`` (needs
+            ``models``).
+        perception: ``emulator`` (default) or ``models`` (the real models of ``models``; the simulation
+            then runs at wall-clock pace unless the profile says otherwise).
+        models: the models profile for ``perception="models"`` and ``relevance="llm"``.
         planner: the local planner's name (``semexp_bt.app.components.PLANNERS``).
         config_overrides: SemExpConfig overrides from the command line (the last layer).
         display: print the tick-level display to ``display_stream``.
@@ -83,6 +90,8 @@ class EpisodeOptions:
     fidelity: str | None = None
     strategy: str = "ours"
     relevance: str = "embedding"
+    perception: str = "emulator"
+    models: ModelsProfile | None = None
     planner: str = "depth_arc"
     config_overrides: Mapping[str, Any] | None = None
     display: bool = False
@@ -116,19 +125,33 @@ def run_episode(options: EpisodeOptions) -> dict[str, Any]:
         strategy_source=f"strategy '{strategy.name}'",
         mission_source=str(options.mission_path),
     )
+    stack = None
+    if options.models is not None:
+        from semexp_bt.perception.adapters.stack import ModelStack
+
+        stack = ModelStack(options.models)
     request = ComponentRequest(
         seed=options.seed,
         strategy=strategy,
         fidelity=cast(Any, fidelity),
         scene=scene,
         start_pose=episode.start,
+        models=stack,
     )
+    observers: list[Any] = [
+        TickRecorder(path=options.record_path, display=options.display, stream=options.display_stream)
+    ]
+    factor = options.models.simulation.real_time_factor if options.models is not None else 0.0
+    if options.perception == "models" and factor > 0.0:
+        from semexp_bt.app.pacing import WallClockPacer
+
+        observers.append(WallClockPacer(real_time_factor=factor))
     robot = build_robot("mujoco", request)
     try:
         components = MissionComponents(
             robot=robot,
-            perception=build_perception("emulator", request),
-            relevance=build_relevance(options.relevance),
+            perception=build_perception(options.perception, request),
+            relevance=build_relevance(options.relevance, request),
             planner=build_planner(options.planner),
             gait=build_gait(cast(Any, fidelity)),
         )
@@ -144,11 +167,12 @@ def run_episode(options: EpisodeOptions) -> dict[str, Any]:
             strategy_switches=strategy.switches,
             start_pose=episode.start,
             max_time_s=options.max_sim_s,
-            observers=[
-                TickRecorder(path=options.record_path, display=options.display, stream=options.display_stream)
-            ],
+            observers=observers,
             privileged=privileged,
         )
+        if stack is not None:  # relevance errors no perception result carried (an emulator run)
+            for message in stack.drain_errors():
+                result.services.log_event("perception_error", message=message)
         record = episode_record(
             options=options,
             scene=scene,
@@ -165,6 +189,8 @@ def run_episode(options: EpisodeOptions) -> dict[str, Any]:
         return record
     finally:
         robot.close()
+        if stack is not None:
+            stack.close()
 
 
 def privileged_goal(

@@ -17,6 +17,10 @@ from collections.abc import Sequence
 #: subcommand -> (module, one-line help). Modules are listed once, here.
 COMMANDS: dict[str, tuple[str, str]] = {
     "run": ("semexp_bt.cli.run", "run one mission tree on a robot backend"),
+    "perceive": (
+        "semexp_bt.cli.perceive",
+        "run the configured real models and the arbitration on one picture",
+    ),
     "replay": ("semexp_bt.cli.replay", "print a per-tick record back"),
     "tree": ("semexp_bt.cli.tree", "validate (check) or print (show) a mission tree"),
     "scene": ("semexp_bt.cli.scene", "list scenes or render one"),
