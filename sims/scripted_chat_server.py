@@ -241,6 +241,9 @@ class ScriptedChatServer:
 
         class Handler(BaseHTTPRequestHandler):
             protocol_version = "HTTP/1.1"
+            # Headers and body go out as two writes: without TCP_NODELAY, Nagle's algorithm and the
+            # client's delayed ACK add about 40 ms to every reply (model servers set it too).
+            disable_nagle_algorithm = True
 
             def log_message(self, format: str, *args: Any) -> None:  # noqa: A002 - the base class's name
                 del format, args  # quiet: tests read the records instead

@@ -5,6 +5,7 @@ picture."""
 from __future__ import annotations
 
 import json
+import re
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -71,6 +72,15 @@ def test_a_mujoco_mission_runs_on_the_models_against_the_scripted_server(
     assert record["decisions"], "the robot should have decided where to go from the models' proposals"
     labels = {c["label"] for d in record["decisions"] for c in d["candidates"]}
     assert labels & SCRIPTED_LABELS
+
+    # The record says what the models cost: calls, failures, latency, the relevance cache's counters.
+    models = record["models"]
+    assert models["calls"]["vlm"]["calls"] == len(scene_requests) and models["calls"]["vlm"]["failures"] == 0
+    assert models["calls"]["vlm"]["latency_s"]["median"] > 0.0
+    relevance = models["relevance"]
+    numbered = re.compile(r'^\d+\. "', re.MULTILINE)
+    assert relevance["asked"] == sum(len(numbered.findall(r.text())) for r in relevance_requests)
+    assert relevance["lookups"] >= relevance["asked"] > 0 and relevance["fallbacks"] == 0
 
 
 def test_the_pacer_holds_the_robot_clock_to_the_wall_clock() -> None:

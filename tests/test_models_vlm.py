@@ -148,20 +148,39 @@ BAD_REPLIES = {
 }
 
 
-@pytest.mark.parametrize("case", sorted(BAD_REPLIES))
-def test_a_bad_reply_yields_no_evidence_and_one_recorded_model_error(
+#: Failures of the request itself: (reply, what the error says, endpoint settings).
+FAILED_REQUESTS: dict[str, tuple[ScriptedReply, str, dict[str, object]]] = {
+    "slow past the timeout": (
+        ScriptedReply(content=scene_json(), delay_s=1.5),
+        "no reply within the 0.3 s timeout (2 attempts)",
+        {"timeout_s": 0.3, "max_retries": 1},
+    ),
+    "429": (ScriptedReply(status=429, headers={"retry-after-ms": "1"}), "HTTP 429", {"max_retries": 1}),
+    "500": (ScriptedReply(status=500, content="internal error"), "HTTP 500: ", {"max_retries": 1}),
+}
+CASES = {
+    **{name: (reply, reason, {}) for name, (reply, reason) in BAD_REPLIES.items()},
+    **FAILED_REQUESTS,
+}
+
+
+@pytest.mark.parametrize("case", sorted(CASES))
+def test_a_bad_reply_or_failed_request_yields_no_evidence_and_one_recorded_model_error(
     server: ScriptedChatServer, case: str, tmp_path: Path
 ) -> None:
-    reply, reason = BAD_REPLIES[case]
-    scene = ask(server, reply)
+    reply, reason, settings = CASES[case]
+    scene = ask(server, reply, **settings)
     print(case, "->", scene.call.error)
     assert scene.evidence is None and not scene.call.ok
     assert scene.call.error is not None and reason in scene.call.error
-    assert scene.call.error.startswith("vlm Qwen/Qwen2.5-VL-7B-Instruct: ")
-    assert scene.call.reply == reply.content  # what the model returned is kept for the user
+    assert scene.call.error.startswith("vlm Qwen/Qwen2.5-VL-7B-Instruct")
+    if case in BAD_REPLIES:
+        assert scene.call.reply == reply.content  # what the model returned is kept for the user
+    else:
+        assert scene.call.reply is None and len(server.requests) == 2  # one retry, then given up
 
     # The record: the tree's Perceive gets no scene evidence and logs the error; nothing raises.
-    source = ModelsPerception(vlm=scene_vlm(server.url), detector=None)
+    source = ModelsPerception(vlm=scene_vlm(server.url, **settings), detector=None)
     result = perceive_once(tmp_path, source)
     source.close()
     errors = [e for e in result.services.events if e["kind"] == "perception_error"]

@@ -183,6 +183,8 @@ def run_episode(options: EpisodeOptions) -> dict[str, Any]:
             strategy=strategy,
             wall_s=time.perf_counter() - wall_start,
         )
+        if stack is not None:
+            record["models"] = stack.summary()
         if options.keep_trajectory:
             record["trajectory_xy"] = subsample_path(result.positions, step_m=TRAJECTORY_STEP_M)
             record["memory_snapshot"] = result.memory.snapshot()

@@ -40,6 +40,9 @@ from semexp_bt.perception.adapters.vlm import SceneCall, SceneVLM
 from semexp_bt.perception.interface import PerceptionResult
 from semexp_bt.perception.llm_relevance import LLMRelevance
 
+#: Calls per model kept for :meth:`ModelsPerception.call_stats` (a long mission keeps its first ones).
+MAX_KEPT_CALLS = 100_000
+
 
 @dataclass(frozen=True)
 class ModelsReport:
@@ -196,20 +199,49 @@ class ModelsPerception:
         )
         self._in_flight = 0
         self._lock = threading.Lock()
+        self._calls: dict[str, list[ModelCall]] = {}
 
     def in_flight(self) -> int:
         """Model requests submitted and not yet finished."""
         with self._lock:
             return self._in_flight
 
+    def call_stats(self) -> dict[str, dict[str, Any]]:
+        """Per model (``vlm``, ``detector``, ``llm``): calls, failures and latency quantiles in seconds,
+        over every view this source has finished (abandoned ones included). A mission's record carries
+        them (``models.calls``): how a real model's cost is read off a run."""
+        with self._lock:
+            calls = {source: list(items) for source, items in self._calls.items()}
+        out: dict[str, dict[str, Any]] = {}
+        for source, items in calls.items():
+            latency = np.array([c.latency_s for c in items])
+            out[source] = {
+                "calls": len(items),
+                "failures": sum(not c.ok for c in items),
+                "latency_s": {
+                    "median": round(float(np.median(latency)), 4),
+                    "p95": round(float(np.percentile(latency, 95)), 4),
+                    "max": round(float(latency.max()), 4),
+                },
+            }
+        return out
+
     def _track(self, future: Future[Any]) -> None:
-        """Count ``future`` in :meth:`in_flight` until it finishes, fails or is cancelled."""
+        """Count ``future`` in :meth:`in_flight` until it finishes, fails or is cancelled; keep its calls."""
         with self._lock:
             self._in_flight += 1
 
-        def finished(_: Future[Any]) -> None:
+        def finished(done: Future[Any]) -> None:
+            calls: tuple[ModelCall, ...] = ()
+            if not done.cancelled() and done.exception() is None:
+                answer = done.result()[1]
+                calls = answer if isinstance(answer, tuple) else (answer,)
             with self._lock:
                 self._in_flight -= 1
+                for call in calls:
+                    kept = self._calls.setdefault(call.source, [])
+                    if len(kept) < MAX_KEPT_CALLS:
+                        kept.append(call)
 
         future.add_done_callback(finished)
 

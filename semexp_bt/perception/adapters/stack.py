@@ -16,6 +16,9 @@ Example:
 
 from __future__ import annotations
 
+import dataclasses
+from typing import Any
+
 from semexp_bt.perception.adapters.chat import CircuitBreaker, OpenAIChatClient
 from semexp_bt.perception.adapters.detection import Detector, load_detector
 from semexp_bt.perception.adapters.source import ModelsPerception
@@ -106,6 +109,18 @@ class ModelStack:
         )
         self._sources.append(source)
         return source
+
+    def summary(self) -> dict[str, Any]:
+        """What the stack's models did, for the episode record: each model's calls, failures and latency
+        (from the perception sources), the relevance scorer's counters (its cache's hit rate among them)
+        and the profile's models."""
+        out: dict[str, Any] = {"profile": self.profile.source, "models": list(self.profile.enabled_sources())}
+        for source in self._sources:
+            out.setdefault("calls", {}).update(source.call_stats())
+        if self._relevance is not None:
+            stats = self._relevance.stats
+            out["relevance"] = {**dataclasses.asdict(stats), "hit_rate": round(stats.hit_rate, 4)}
+        return out
 
     def drain_errors(self) -> list[str]:
         """Model errors not yet handed to a perception result (the LLM scorer's, in an emulator run)."""
