@@ -233,3 +233,19 @@ def test_the_llm_row_needs_a_models_profile() -> None:
             "llm",
             ComponentRequest(seed=0, strategy=resolve_strategy("ours"), models=ModelStack(ModelsProfile())),
         )
+
+
+class BrokenTransport:
+    model = "broken"
+
+    def complete(self, request: object) -> ChatReply:
+        raise TypeError("a bug in a transport")
+
+
+def test_an_unexpected_failure_inside_a_tick_lookup_falls_back_instead_of_raising() -> None:
+    llm = LLMRelevance(llm_config("http://unused/v1"), BrokenTransport())  # type: ignore[arg-type]
+    assert llm.score(instruction=INSTRUCTION, label="extinguisher") == LEXICAL.score(
+        instruction=INSTRUCTION, label="extinguisher"
+    )
+    (error,) = llm.drain_errors()
+    assert error.startswith("llm broken: unexpected TypeError: a bug in a transport") and "fallback" in error

@@ -101,6 +101,7 @@ def test_a_cancelled_view_stays_silent() -> None:
             time.sleep(0.01)
         assert source.in_flight() == 0 and job.done()  # the request already sent has finished...
         assert job.poll(now_s=10.0) is None  # ...but the tree never sees it
+        assert job.wait(1.0) is None
         source.close()
 
 

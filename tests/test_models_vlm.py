@@ -190,6 +190,7 @@ def test_a_bad_reply_or_failed_request_yields_no_evidence_and_one_recorded_model
     assert result.outcome == "success"  # Perceive itself succeeded: the view simply has no evidence
     assert result.services.robot.now_s() < 20.0  # answered, not timed out
     assert server.requests[-1].body["model"] == "Qwen/Qwen2.5-VL-7B-Instruct"
+    assert server.requests[-1].image_data_url() is not None  # the frame went with the request
 
 
 def test_the_record_of_a_good_reply_has_the_evidence_and_no_error(

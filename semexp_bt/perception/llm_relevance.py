@@ -30,6 +30,7 @@ import json
 import math
 import sqlite3
 import threading
+import time
 from collections import deque
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -268,7 +269,11 @@ class LLMRelevance:
                 missing = [lb for lb in missing if lb not in late]
                 disk = self._disk_cache() if missing else None
                 if disk is not None:
-                    found = disk.get(model, version, instruction, missing)
+                    try:
+                        found = disk.get(model, version, instruction, missing)
+                    except sqlite3.Error as exc:
+                        self._queue_error(f"llm relevance cache read failed: {exc}")
+                        found = {}
                     with self._lock:
                         self.stats.disk_hits += len(found)
                         self._memory.update({(instruction, lb): v for lb, v in found.items()})
@@ -298,12 +303,25 @@ class LLMRelevance:
         with self._lock:
             self.stats.asked += len(batch)
             self.stats.requests += 1
-        scores, call = ask(
-            "llm",
-            self.transport,
-            lambda: self.request(instruction=instruction, labels=batch),
-            lambda reply: parse_relevance_scores(reply, n_labels=len(batch), schema=self.prompt.schema),
-        )
+        start = time.perf_counter()
+        try:
+            scores, call = ask(
+                "llm",
+                self.transport,
+                lambda: self.request(instruction=instruction, labels=batch),
+                lambda reply: parse_relevance_scores(reply, n_labels=len(batch), schema=self.prompt.schema),
+            )
+        except Exception as exc:  # noqa: BLE001 - lookups run inside ticks: a bug must not stop the robot
+            scores, call = (
+                None,
+                ModelCall(
+                    source="llm",
+                    model=self.transport.model,
+                    ok=False,
+                    error=f"llm {self.transport.model}: unexpected {type(exc).__name__}: {exc}",
+                    latency_s=time.perf_counter() - start,
+                ),
+            )
         if scores is None:
             note = f" ({len(batch)} labels scored by the {type(self.fallback).__name__} fallback)"
             call = dataclasses.replace(call, error=f"{call.error}{note}")

@@ -27,7 +27,7 @@ from __future__ import annotations
 import threading
 import time
 from collections.abc import Callable
-from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import CancelledError, Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Any
 
@@ -113,15 +113,16 @@ class ModelsJob:
         return self.report().result
 
     def wait(self, timeout_s: float) -> ModelsReport | None:
-        """Block until done or ``timeout_s`` passed (for ``semexp-bt perceive``; never in a tick)."""
+        """Block until done or ``timeout_s`` passed (for ``semexp-bt perceive``; never in a tick); None
+        when it timed out or was cancelled."""
         deadline = time.monotonic() + timeout_s
         for future in (self._scene, self._detector):
             if future is not None:
                 try:
                     future.exception(timeout=max(0.0, deadline - time.monotonic()))
-                except TimeoutError:
+                except (TimeoutError, CancelledError):
                     return None
-        return self.report()
+        return None if self._cancelled else self.report()
 
     def report(self) -> ModelsReport:
         """The view's report (only once :meth:`done`)."""
