@@ -9,7 +9,7 @@ MuJoCo renderer; a lexical run needs no torch).
 
 Example:
     >>> sorted(RELEVANCE_SCORERS)
-    ['embedding', 'lexical']
+    ['embedding', 'lexical', 'llm']
     >>> build_relevance("lexical").score(instruction="find the red chair", label="chair") > 0.5
     True
 """
@@ -29,6 +29,7 @@ if TYPE_CHECKING:
     from robots.interface import Fidelity, Robot
     from semexp_bt.core.scene import SceneSpec
     from semexp_bt.nav.planner import LocalPlanner
+    from semexp_bt.perception.adapters.stack import ModelStack
     from semexp_bt.perception.interface import PerceptionSource
 
 
@@ -46,6 +47,8 @@ class ComponentRequest:
         fidelity: ``kinematic`` or ``dynamic``.
         scene: the simulated scene, for simulated components (None on a real robot).
         start_pose: where a simulated robot starts.
+        models: the real models of a models profile, shared by the ``models`` perception source and the
+            ``llm`` relevance scorer (None when the run names no profile).
     """
 
     seed: int
@@ -53,6 +56,15 @@ class ComponentRequest:
     fidelity: Fidelity = "kinematic"
     scene: SceneSpec | None = None
     start_pose: Pose2D | None = None
+    models: ModelStack | None = None
+
+    def require_models(self, component: str) -> ModelStack:
+        """The models profile's stack, or a clear error naming the component that needs one."""
+        if self.models is None:
+            raise InvalidInputError(
+                f"{component} needs a models profile (give --models, or --vlm-url/--llm-url)"
+            )
+        return self.models
 
     def require_scene(self, component: str) -> SceneSpec:
         """The simulated scene, or a clear error naming the component that needs one."""
@@ -84,16 +96,31 @@ def _emulated_perception(request: ComponentRequest) -> PerceptionSource:
     )
 
 
-def _embedding_relevance() -> CachedRelevance:
+def _model_perception(request: ComponentRequest) -> PerceptionSource:
+    strategy = request.strategy
+    return request.require_models("the models perception source").perception(
+        enable_vlm=strategy.enable_vlm, enable_detector=strategy.enable_detector
+    )
+
+
+def _embedding_relevance(request: ComponentRequest | None) -> CachedRelevance:
     from semexp_bt.perception.embedding_relevance import shared_embedding_relevance
 
     return CachedRelevance(shared_embedding_relevance())
 
 
-def _lexical_relevance() -> CachedRelevance:
+def _lexical_relevance(request: ComponentRequest | None) -> CachedRelevance:
     from semexp_bt.core.relevance import LexicalRelevance
 
     return CachedRelevance(LexicalRelevance())
+
+
+def _llm_relevance(request: ComponentRequest | None) -> CachedRelevance:
+    if request is None:
+        raise InvalidInputError(
+            "the llm relevance scorer needs a models profile (give --models or --llm-url)"
+        )
+    return CachedRelevance(request.require_models("the llm relevance scorer").relevance())
 
 
 def _depth_arc_planner() -> LocalPlanner:
@@ -106,12 +133,14 @@ def _depth_arc_planner() -> LocalPlanner:
 ROBOT_BACKENDS: dict[str, Callable[[ComponentRequest], Robot]] = {"mujoco": _mujoco_robot}
 #: Perception sources: name -> builder.
 PERCEPTION_SOURCES: dict[str, Callable[[ComponentRequest], PerceptionSource]] = {
-    "emulator": _emulated_perception
+    "emulator": _emulated_perception,
+    "models": _model_perception,
 }
 #: Relevance scorers S in [0, 1]: name -> builder of a cached scorer (a fresh cache per mission).
-RELEVANCE_SCORERS: dict[str, Callable[[], CachedRelevance]] = {
+RELEVANCE_SCORERS: dict[str, Callable[[ComponentRequest | None], CachedRelevance]] = {
     "embedding": _embedding_relevance,
     "lexical": _lexical_relevance,
+    "llm": _llm_relevance,
 }
 #: Local planners: name -> builder.
 PLANNERS: dict[str, Callable[[], LocalPlanner]] = {"depth_arc": _depth_arc_planner}
@@ -136,9 +165,10 @@ def build_perception(name: str, request: ComponentRequest) -> PerceptionSource:
     return _lookup(PERCEPTION_SOURCES, "perception source", name)(request)
 
 
-def build_relevance(name: str) -> CachedRelevance:
-    """The relevance scorer called ``name``, behind a fresh per-mission cache."""
-    return _lookup(RELEVANCE_SCORERS, "relevance scorer", name)()
+def build_relevance(name: str, request: ComponentRequest | None = None) -> CachedRelevance:
+    """The relevance scorer called ``name``, behind a fresh per-mission cache (``llm`` needs a request
+    with a models profile)."""
+    return _lookup(RELEVANCE_SCORERS, "relevance scorer", name)(request)
 
 
 def build_planner(name: str) -> LocalPlanner:

@@ -50,6 +50,7 @@ from trees.loader import parse_mission
 
 if TYPE_CHECKING:
     from semexp_bt.app.viewer.observer import ViewOptions
+    from semexp_bt.perception.model_config import ModelsProfile
 
 #: ``trajectory_xy`` keeps a base position each time the robot has moved this far (m) since the last kept one.
 TRAJECTORY_STEP_M = 0.1
@@ -71,7 +72,11 @@ class EpisodeOptions:
         instruction: overrides the mission's/scene's instruction.
         fidelity: ``kinematic`` or ``dynamic``; None takes the mission's setting.
         strategy: a named strategy (``ours`` by default) from ``semexp_bt/app/strategies.yaml``.
-        relevance: ``embedding`` (default, offline MiniLM) or ``lexical`` (no torch).
+        relevance: ``embedding`` (default, offline MiniLM), ``lexical`` (no torch) or ``llm`` (needs
+            ``models``).
+        perception: ``emulator`` (default) or ``models`` (the real models of ``models``; the simulation
+            then runs at wall-clock pace unless the profile says otherwise).
+        models: the models profile for ``perception="models"`` and ``relevance="llm"``.
         planner: the local planner's name (``semexp_bt.app.components.PLANNERS``).
         config_overrides: SemExpConfig overrides from the command line (the last layer).
         display: print the tick-level display to ``display_stream``.
@@ -93,6 +98,8 @@ class EpisodeOptions:
     fidelity: str | None = None
     strategy: str = "ours"
     relevance: str = "embedding"
+    perception: str = "emulator"
+    models: ModelsProfile | None = None
     planner: str = "depth_arc"
     config_overrides: Mapping[str, Any] | None = None
     display: bool = False
@@ -127,12 +134,18 @@ def run_episode(options: EpisodeOptions) -> dict[str, Any]:
         strategy_source=f"strategy '{strategy.name}'",
         mission_source=str(options.mission_path),
     )
+    stack = None
+    if options.models is not None:
+        from semexp_bt.perception.adapters.stack import ModelStack
+
+        stack = ModelStack(options.models)
     request = ComponentRequest(
         seed=options.seed,
         strategy=strategy,
         fidelity=cast(Any, fidelity),
         scene=scene,
         start_pose=episode.start,
+        models=stack,
     )
     recorder = TickRecorder(path=options.record_path, display=options.display, stream=options.display_stream)
     observers: list[TickObserver] = [recorder]
@@ -140,12 +153,17 @@ def run_episode(options: EpisodeOptions) -> dict[str, Any]:
         from semexp_bt.app.viewer.observer import ViewObserver
 
         observers.append(ViewObserver(options.view, recorder=recorder))
+    factor = options.models.simulation.real_time_factor if options.models is not None else 0.0
+    if options.perception == "models" and factor > 0.0:
+        from semexp_bt.app.pacing import WallClockPacer
+
+        observers.append(WallClockPacer(real_time_factor=factor))
     robot = build_robot("mujoco", request)
     try:
         components = MissionComponents(
             robot=robot,
-            perception=build_perception("emulator", request),
-            relevance=build_relevance(options.relevance),
+            perception=build_perception(options.perception, request),
+            relevance=build_relevance(options.relevance, request),
             planner=build_planner(options.planner),
             gait=build_gait(cast(Any, fidelity)),
         )
@@ -164,6 +182,9 @@ def run_episode(options: EpisodeOptions) -> dict[str, Any]:
             observers=observers,
             privileged=privileged,
         )
+        if stack is not None:  # relevance errors no perception result carried (an emulator run)
+            for message in stack.drain_errors():
+                result.services.log_event("perception_error", message=message)
         record = episode_record(
             options=options,
             scene=scene,
@@ -174,12 +195,16 @@ def run_episode(options: EpisodeOptions) -> dict[str, Any]:
             strategy=strategy,
             wall_s=time.perf_counter() - wall_start,
         )
+        if stack is not None:
+            record["models"] = stack.summary()
         if options.keep_trajectory:
             record["trajectory_xy"] = subsample_path(result.positions, step_m=TRAJECTORY_STEP_M)
             record["memory_snapshot"] = result.memory.snapshot()
         return record
     finally:
         robot.close()
+        if stack is not None:
+            stack.close()
 
 
 def privileged_goal(

@@ -2,6 +2,8 @@
 
 On the MuJoCo backend (the default) the mission runs in a simulated episode: ``--scene`` and ``--seed``
 choose the world and the start, and the record is scored against the scene's ground truth.
+``--perception models --models PROFILE`` (or ``--vlm-url URL --vlm-model NAME``) sends the rendered
+frames to real models instead of the perception emulator (docs/perception.md).
 """
 
 from __future__ import annotations
@@ -13,7 +15,8 @@ import time
 from pathlib import Path
 from typing import Any
 
-from semexp_bt.app.components import PLANNERS, RELEVANCE_SCORERS, ROBOT_BACKENDS
+from semexp_bt.app.components import PERCEPTION_SOURCES, PLANNERS, RELEVANCE_SCORERS, ROBOT_BACKENDS
+from semexp_bt.app.models_profile import add_models_arguments, models_profile_from_args
 from semexp_bt.cli.arguments import output_file, print_error, scene_name, seed, strategy_name
 from semexp_bt.core.durable import write_json
 from trees.loader import MissionLoadError
@@ -49,8 +52,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--relevance",
         choices=sorted(RELEVANCE_SCORERS),
         default="embedding",
-        help="semantic relevance scorer (embedding: offline MiniLM; lexical: no torch)",
+        help="semantic relevance scorer (embedding: offline MiniLM; lexical: no torch; llm: the profile's LLM)",
     )
+    parser.add_argument(
+        "--perception",
+        choices=sorted(PERCEPTION_SOURCES),
+        default="emulator",
+        help="perception source (emulator: simulated models; models: the profile's real models)",
+    )
+    add_models_arguments(parser)
     parser.add_argument("--planner", choices=sorted(PLANNERS), default="depth_arc", help="local planner")
     parser.add_argument(
         "--config", type=Path, default=None, help="YAML of config overrides (the last layer; docs/config.md)"
@@ -110,6 +120,8 @@ def _run(args: argparse.Namespace) -> dict[str, Any]:
             fidelity=args.fidelity,
             strategy=args.strategy,
             relevance=args.relevance,
+            perception=args.perception,
+            models=models_profile_from_args(args),
             planner=args.planner,
             config_overrides=None if args.config is None else read_config_file(args.config),
             display=args.display,
