@@ -28,8 +28,6 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, get_type_hints
 
-import yaml
-
 from semexp_bt.core.config import ConfigError, config_from_dict
 from semexp_bt.perception.model_config import (
     DEVICE,
@@ -41,6 +39,7 @@ from semexp_bt.perception.model_config import (
     SimulationConfig,
     VLMConfig,
 )
+from trees.yaml_source import YamlSourceError, load_yaml_file
 
 #: The environment variable the command-line endpoints read their key from (when it is set).
 FLAG_KEY_ENV = "OPENAI_API_KEY"
@@ -54,29 +53,19 @@ SECTIONS: dict[str, type] = {
 }
 
 
-def load_yaml_file(path: Path) -> Any:
-    """The YAML document in ``path``; the one place this module reads YAML.
-
-    Raises:
-        ConfigError: naming the file when it cannot be read or is not YAML.
-    """
-    try:
-        text = Path(path).read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"{path}: cannot read models profile: {exc}") from exc
-    try:
-        return yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        raise ConfigError(f"{path}: invalid YAML: {exc}") from exc
-
-
 def read_models_profile(path: Path) -> ModelsProfile:
-    """The profile in a YAML file.
+    """The profile in a YAML file, read by the product's one safe YAML reader (``trees.yaml_source``: not a
+    regular file, too big, not UTF-8, tabs, deep nesting, alias bombs, duplicate keys and non-plain tags
+    are refused).
 
     Raises:
-        ConfigError: naming the file and the key.
+        ConfigError: one line naming the file (and the line and column, or the dotted key).
     """
-    return profile_from_mapping(load_yaml_file(path), where=str(path))
+    try:
+        document = load_yaml_file(path)
+    except YamlSourceError as exc:
+        raise ConfigError(f"models profile {exc}") from None
+    return profile_from_mapping(document, where=str(path))
 
 
 def _section(cls: type, data: Any, *, where: str, name: str) -> Any:

@@ -20,7 +20,9 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass, field
-from typing import Any, Literal
+from typing import Literal
+
+from semexp_bt.core.bounds import field_range
 
 #: How a chat server is asked for JSON: a JSON schema (vLLM, SGLang, OpenAI, Ollama), any JSON object
 #: (servers without schema support), or nothing but the prompt.
@@ -35,10 +37,6 @@ ENV_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 DEVICE = re.compile(r"^(cpu|cuda(:\d+)?|mps)$")
 
 
-def _within(lo: float, hi: float, *, lo_open: bool = False, hi_open: bool = False) -> dict[str, Any]:
-    return {"range": (lo, hi, lo_open, hi_open)}
-
-
 @dataclass(frozen=True)
 class ChatEndpointConfig:
     """An OpenAI-compatible chat-completions endpoint (vLLM, SGLang, Ollama, DashScope, OpenAI)."""
@@ -49,14 +47,14 @@ class ChatEndpointConfig:
     """The model name the server knows, sent in every request."""
     api_key_env: str = ""
     """The NAME of the environment variable holding the API key; "" sends no key (a local server)."""
-    timeout_s: float = field(default=30.0, metadata=_within(0.0, 600.0, lo_open=True))
+    timeout_s: float = field(default=30.0, metadata=field_range(0.0, 600.0, low_open=True))
     """Per-attempt timeout: connect, send, and wait for the whole reply."""
-    max_retries: int = field(default=2, metadata=_within(0, 10))
+    max_retries: int = field(default=2, metadata=field_range(0, 10))
     """Retries after the first attempt on 408/409/429/5xx, connection errors and timeouts, with the
     ``openai`` client's exponential backoff (it honours ``Retry-After``)."""
     response_format: ResponseFormat = "json_schema"
     """How the server is asked for JSON (see :data:`ResponseFormat`)."""
-    max_tokens: int = field(default=1024, metadata=_within(16, 32768))
+    max_tokens: int = field(default=1024, metadata=field_range(16, 32768))
     """Upper bound on the reply's length in tokens (a reply cut by it is truncated JSON: rejected)."""
 
 
@@ -66,11 +64,11 @@ class VLMConfig(ChatEndpointConfig):
 
     image_format: Literal["png", "jpeg"] = "png"
     """How the frame is encoded into the request's image content part (PNG is lossless)."""
-    jpeg_quality: int = field(default=90, metadata=_within(1, 100))
+    jpeg_quality: int = field(default=90, metadata=field_range(1, 100))
     """JPEG quality when ``image_format`` is ``jpeg``."""
     point_format: PointFormat = "pixels"
     """How the model writes points (see :data:`PointFormat`); converted to pixels when read."""
-    max_proposals: int = field(default=8, metadata=_within(1, 64))
+    max_proposals: int = field(default=8, metadata=field_range(1, 64))
     """Proposals kept per reply (the prompt asks for at most this many; extra ones are dropped)."""
 
 
@@ -78,7 +76,7 @@ class VLMConfig(ChatEndpointConfig):
 class LLMConfig(ChatEndpointConfig):
     """The relevance LLM (S_LLM in [0, 1] between the instruction and a memory node's label)."""
 
-    batch_size: int = field(default=16, metadata=_within(1, 256))
+    batch_size: int = field(default=16, metadata=field_range(1, 256))
     """Labels scored per request."""
     cache_path: str = "~/.cache/semexp-bt/relevance.sqlite3"
     """The on-disk cache (SQLite) per (model, prompt version, instruction, label); "" keeps none."""
@@ -97,11 +95,11 @@ class DetectorConfig:
     """A local checkpoint directory (or file, for YOLO-World), or a hub id already in the user's cache."""
     device: str = "cpu"
     """``cpu``, ``cuda``, ``cuda:N`` or ``mps``."""
-    box_threshold: float = field(default=0.35, metadata=_within(0.0, 1.0))
+    box_threshold: float = field(default=0.35, metadata=field_range(0.0, 1.0))
     """Boxes scoring below this are dropped (GroundingDINO's box threshold, OWLv2's and YOLO's score)."""
-    text_threshold: float = field(default=0.25, metadata=_within(0.0, 1.0))
+    text_threshold: float = field(default=0.25, metadata=field_range(0.0, 1.0))
     """GroundingDINO only: a box's prompt tokens must score this much to name it."""
-    max_detections: int = field(default=20, metadata=_within(1, 1000))
+    max_detections: int = field(default=20, metadata=field_range(1, 1000))
     """Detections kept per frame, highest confidence first."""
     allow_download: bool = False
     """False keeps the Hugging Face libraries offline: weights must already be on disk."""
@@ -111,9 +109,9 @@ class DetectorConfig:
 class CircuitBreakerConfig:
     """When a failing endpoint stops being asked (for every model of the profile)."""
 
-    failures_to_open: int = field(default=3, metadata=_within(1, 100))
+    failures_to_open: int = field(default=3, metadata=field_range(1, 100))
     """Consecutive failed requests (after their retries) that open the circuit."""
-    open_s: float = field(default=30.0, metadata=_within(0.0, 3600.0))
+    open_s: float = field(default=30.0, metadata=field_range(0.0, 3600.0))
     """How long an open circuit refuses requests before one trial request is let through."""
 
 
@@ -121,7 +119,7 @@ class CircuitBreakerConfig:
 class SimulationConfig:
     """How real models meet a simulated robot."""
 
-    real_time_factor: float = field(default=1.0, metadata=_within(0.0, 1000.0))
+    real_time_factor: float = field(default=1.0, metadata=field_range(0.0, 1000.0))
     """At most this many robot seconds per wall second; 1 holds the simulation to real time, so a model's
     wall-clock latency costs the robot what it would on a real robot (unpaced, the simulator runs many
     times faster than real time and every request would look like a time-out to the tree); 0 runs
