@@ -95,6 +95,8 @@ from semexp_bt.core.types import (
 ODOM_HISTORY = 64
 #: Camera frames kept per stream for pairing colour with depth by stamp.
 FRAME_HISTORY = 8
+#: Completed camera pairs remembered for :meth:`Ros2Robot.camera_pair_arrivals`.
+PAIR_LOG = 4096
 #: How often (s, steady clock) the watchdog looks at the streams' ages.
 WATCHDOG_PERIOD_S = 0.05
 #: Zero twists sent on close, so that the driver has one even if a datagram is lost.
@@ -220,6 +222,7 @@ class Ros2Robot(Robot):
             for stream in ("color_image", "depth_image", "segmentation")
         }
         self._arrivals: dict[str, int] = collections.defaultdict(int)
+        self._pairs_completed: collections.deque[tuple[int, float]] = collections.deque(maxlen=PAIR_LOG)
         self._clock_ns: int | None = None
         self._sim_time_s: float | None = None
         self._halt: RobotHalted | None = None
@@ -233,7 +236,8 @@ class Ros2Robot(Robot):
 
         self._rclpy = rclpy
         self._context = ros_context(rclpy)
-        self.node = rclpy.create_node(node_name, context=self._context)
+        # No parameter services: every entity costs each executor wake-up (rclpy rebuilds its wait set).
+        self.node = rclpy.create_node(node_name, context=self._context, start_parameter_services=False)
         topics, qos = self.profile.topics, self.profile.qos
         self._cmd_pub = self.node.create_publisher(TwistMsg, topics.cmd_vel, qos_profile(qos.cmd_vel))
         subscribe = self.node.create_subscription
@@ -245,7 +249,7 @@ class Ros2Robot(Robot):
         subscribe(CameraInfo, topics.color_info, self._store("color_info"), qos_profile(qos.color_info))
         subscribe(Image, topics.color_image, self._store_frame("color_image"), qos_profile(qos.color_image))
         subscribe(Image, topics.depth_image, self._store_frame("depth_image"), qos_profile(qos.depth_image))
-        if self._use_sim_time:
+        if self._use_sim_time and not simulation:  # the bridge's float clock (/sim/time) serves then
             subscribe(ClockMsg, topics.clock, self._on_clock, qos_profile(qos.clock))
         self._step_pub: Any = None
         self._request_pub: Any = None
@@ -262,7 +266,7 @@ class Ros2Robot(Robot):
             )
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         self.node.create_timer(1.0 / self.profile.command.rate_hz, self._send_command, clock=steady)
-        self.node.create_timer(WATCHDOG_PERIOD_S, self._watchdog, clock=steady)
+        self._watchdog_timer = self.node.create_timer(WATCHDOG_PERIOD_S, self._watchdog, clock=steady)
         self._executor = SingleThreadedExecutor(context=self._context)
         self._executor.add_node(self.node)
         self._spinner = threading.Thread(target=self._spin, name="ros2-robot-spin", daemon=True)
@@ -334,12 +338,23 @@ class Ros2Robot(Robot):
         return callback
 
     def _store_frame(self, stream: str) -> Callable[[Any], None]:
+        other = {"color_image": "depth_image", "depth_image": "color_image"}.get(stream)
+
         def callback(msg: Any) -> None:
             with self._lock:
-                self._frames[stream].append(self._record(stream, stamp_to_ns(msg.header.stamp), msg))
+                entry = self._record(stream, stamp_to_ns(msg.header.stamp), msg)
+                self._frames[stream].append(entry)
+                if other is not None and any(f.stamp_ns == entry.stamp_ns for f in self._frames[other]):
+                    self._pairs_completed.append((entry.stamp_ns, entry.arrived_s))
                 self._lock.notify_all()
 
         return callback
+
+    def camera_pair_arrivals(self) -> list[tuple[int, float]]:
+        """``(stamp_ns, steady time)`` at which each recent colour + depth pair became complete (for the
+        latency benchmark: ``time.monotonic`` is the same clock in every process of the machine)."""
+        with self._lock:
+            return list(self._pairs_completed)
 
     def _on_odom(self, msg: Any) -> None:
         try:
@@ -380,6 +395,8 @@ class Ros2Robot(Robot):
         with self._lock:
             self._simulation_info = info
             self._lock.notify_all()
+        if info.mode == "lockstep":  # deadlines bound the waits instead; one entity less per wake-up
+            self._watchdog_timer.cancel()
 
     # ------------------------------------------------------------------ readiness
 
@@ -404,7 +421,9 @@ class Ros2Robot(Robot):
         if self.simulation and self._simulation_info is None:
             return missing  # which streams to expect depends on the bridge's mode
         missing += [self.profile.topic_of(s) for s in self._watched_streams() if s not in self._latest]
-        if self._use_sim_time and self._clock_ns is None:
+        if self.simulation and self._sim_time_s is None:
+            missing.append(TIME_TOPIC)
+        elif self._use_sim_time and not self.simulation and self._clock_ns is None:
             missing.append(self.profile.topics.clock)
         return missing
 
@@ -433,6 +452,8 @@ class Ros2Robot(Robot):
     # ------------------------------------------------------------------ clock
 
     def _now_ns(self) -> int:
+        if self.simulation:
+            return int(round((self._sim_time_s or 0.0) * 1e9))
         if self._use_sim_time:
             return int(self._clock_ns or 0)
         return time.time_ns()
@@ -444,9 +465,14 @@ class Ros2Robot(Robot):
             return self._now_s_locked()
 
     def _now_s_locked(self) -> float:
-        if self.lockstep and self._sim_time_s is not None:
-            return self._sim_time_s
+        if self.lockstep:
+            return self._sim_time_s or 0.0
         return (self._now_ns() - self._epoch_ns) * 1e-9
+
+    @property
+    def epoch_s(self) -> float:
+        """The ROS time (s) at which the backend became ready: ``now_s()`` counts from here."""
+        return self._epoch_ns * 1e-9
 
     def _sim_time_reached(self, target_ns: int) -> bool:
         """Lockstep: the float clock has reached ``target_ns`` (to the nanosecond)."""
@@ -482,17 +508,13 @@ class Ros2Robot(Robot):
         with self._lock:
             arrived = self._await_bridge(
                 lambda: (
-                    self._clock_ns is not None
-                    and self._clock_ns >= target_ns
-                    and self._sim_time_reached(target_ns)
-                    and bool(self._odom)
-                    and self._odom[-1][0] >= target_ns
+                    self._sim_time_reached(target_ns) and bool(self._odom) and self._odom[-1][0] >= target_ns
                 ),
                 deadline,
             )
             if not arrived:
                 stepped = bool(self._odom) and self._odom[-1][0] >= target_ns
-                topic = self.profile.topics.clock if stepped else self.profile.topics.odom
+                topic = TIME_TOPIC if stepped else self.profile.topics.odom
                 self._halt_locked(
                     topic, f"the simulation bridge fell silent for {deadline:.2f} s during a step"
                 )
@@ -529,28 +551,25 @@ class Ros2Robot(Robot):
         raise halt
 
     def _wait_for_time(self, target_ns: int) -> None:
-        if not self._use_sim_time:
-            with self._lock:
-                period_ns = target_ns - (self._target_ns or target_ns)
+        """Live: wait until ROS time reaches ``target_ns`` (the system clock, or /clock and /sim/time)."""
+        with self._lock:
+            period_ns = target_ns - (self._target_ns or target_ns)
+            if not self._use_sim_time:
                 wait_s = max(0.0, (target_ns - time.time_ns()) * 1e-9)
                 self._lock.wait_for(lambda: self._halt is not None, timeout=wait_s)
-                self._raise_if_halted()
-                now = time.time_ns()
-                # A tick that overran by a whole period does not make the next ones rush to catch up.
-                self._target_ns = target_ns if now - target_ns < period_ns else now
-            return
-        deadline = self.profile.deadline_of("odom") + (target_ns - self._now_ns()) * 1e-9
-        with self._lock:
-            moved = self._lock.wait_for(
-                lambda: self._halt is not None or (self._clock_ns or 0) >= target_ns,
-                timeout=max(deadline, 0.0),
-            )
-            self._raise_if_halted()
-            if not moved:
-                self._halt_locked(
-                    self.profile.topics.clock, f"ROS time did not reach the next tick within {deadline:.2f} s"
+            else:
+                deadline = self.profile.deadline_of("odom") + (target_ns - self._now_ns()) * 1e-9
+                moved = self._lock.wait_for(
+                    lambda: self._halt is not None or self._now_ns() >= target_ns, timeout=max(deadline, 0.0)
                 )
-            self._target_ns = target_ns
+                self._raise_if_halted()
+                if not moved:
+                    topic = TIME_TOPIC if self.simulation else self.profile.topics.clock
+                    self._halt_locked(topic, f"ROS time did not reach the next tick within {deadline:.2f} s")
+            self._raise_if_halted()
+            now = self._now_ns()
+            # A tick that overran by a whole period does not make the next ones rush to catch up.
+            self._target_ns = target_ns if now - target_ns < period_ns else now
 
     # ------------------------------------------------------------------ camera
 

@@ -10,7 +10,7 @@ Conventions (realsense-ros and REP-103/105):
 - aligned depth: ``16UC1`` millimetres with 0 = no depth, decoded to float32 metres with 0 kept as the
   invalid marker (``Observation.depth_m``'s convention); ``32FC1`` metres is accepted too (NaN -> 0).
   Encoding rounds to the nearest millimetre; NaN (not measured), non-positive and beyond-65.535 m depths
-  encode as 0;
+  (as rounded) encode as 0;
 - simulation segmentation (``/sim/...`` only): ``16UC1`` holding ``object id + 1``, 0 = background;
 - odometry: the pose of ``child_frame_id`` (``base_link``) in ``header.frame_id`` (``odom``); its twist
   is in the child frame, i.e. the body frame;
@@ -157,9 +157,10 @@ def fill_rgb_image(msg: Any, rgb: npt.NDArray[np.uint8], *, stamp_s: float, fram
 def depth_to_millimetres(depth_m: npt.NDArray[np.floating[Any]]) -> npt.NDArray[np.uint16]:
     """Metres -> 16UC1 millimetres: nearest millimetre; NaN, <= 0 and beyond 65.535 m -> 0 (no depth)."""
     depth = np.asarray(depth_m, dtype=np.float64)
-    valid = np.isfinite(depth) & (depth > 0.0) & (depth <= MAX_DEPTH_16UC1_M)
-    millimetres = np.rint(np.where(valid, depth, 0.0) * 1e3)
-    return millimetres.astype(np.uint16)
+    finite = np.isfinite(depth)
+    millimetres = np.rint(np.where(finite, depth, 0.0) * 1e3)
+    valid = finite & (millimetres > 0.0) & (millimetres <= 65535.0)
+    return np.where(valid, millimetres, 0.0).astype(np.uint16)
 
 
 def fill_depth_image(

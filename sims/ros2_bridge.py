@@ -82,6 +82,9 @@ CONTROL_PERIOD_S = 0.02
 #: Lockstep: with no step for this long (s, wall), the bridge republishes the current state (so a late
 #: executive finds it, and a lost best-effort /clock is made good).
 HEARTBEAT_S = 0.25
+#: IMU and joint states go out every this many control steps (10 Hz): nothing in the tree reads them
+#: faster, and each message costs both processes more than a kinematic step does (docs/ros2.md).
+PROPRIOCEPTION_EVERY = 5
 #: The streams a test may silence (``--silence STREAM=T``): the profile's sensor topics.
 SILENCEABLE: tuple[str, ...] = (
     "odom",
@@ -188,6 +191,7 @@ class SimBridge:
         self._stop_reason: str | None = None
         self._errors: list[str] = []
         self._frames_published = 0
+        self._frame_log: list[tuple[int, float]] = []
         self._setup_ros()
 
     # ------------------------------------------------------------------ ROS
@@ -213,7 +217,9 @@ class SimBridge:
         }
         self._rclpy = rclpy
         self._context = ros_context(rclpy)
-        self.node = rclpy.create_node("semexp_sim_bridge", context=self._context)
+        self.node = rclpy.create_node(
+            "semexp_sim_bridge", context=self._context, start_parameter_services=False
+        )
         topics, qos = self.profile.topics, self.profile.qos
         self._pubs: dict[str, Any] = {
             stream: self.node.create_publisher(
@@ -226,6 +232,9 @@ class SimBridge:
         )
         self._pubs["sim_time"] = self.node.create_publisher(Float64, TIME_TOPIC, qos_profile(SIM_QOS))
         self._types["sim_time"] = Float64
+        # The per-step messages are built once and refilled (publish copies them): building an Odometry
+        # in Python costs more than a kinematic step.
+        self._reused = {name: self._types[name]() for name in ("odom", "sim_time", "clock")}
         scene_pub = self.node.create_publisher(String, SCENE_TOPIC, qos_profile(SIM_LATCHED_QOS))
         self.node.create_subscription(TwistMsg, topics.cmd_vel, self._on_cmd_vel, qos_profile(qos.cmd_vel))
         self.node.create_subscription(String, OUTCOME_TOPIC, self._on_outcome, qos_profile(SIM_LATCHED_QOS))
@@ -267,8 +276,9 @@ class SimBridge:
         if not self._silenced(stream):
             self._pubs[stream].publish(msg)
 
-    def publish_state(self) -> None:
-        """Clock, odometry, IMU and joint states of the current instant (all stamped with it)."""
+    def publish_state(self, *, heartbeat: bool = False) -> None:
+        """Clock, odometry (and every PROPRIOCEPTION_EVERY steps, or on a heartbeat, IMU and joint states)
+        of the current instant, all stamped with it."""
         stamp_s = self._now_ns() * 1e-9
         frames = self.profile.frames
         robot = self.robot
@@ -276,7 +286,7 @@ class SimBridge:
         base_to_world = np.eye(4)
         base_to_world[:3, :3] = robot.data.xmat[self._trunk].reshape(3, 3)
         base_to_world[:3, 3] = robot.data.xpos[self._trunk]
-        odom = self._types["odom"]()
+        odom = self._reused["odom"]
         fill_odometry(
             odom,
             base_to_world,
@@ -286,16 +296,17 @@ class SimBridge:
             base_frame=frames.base,
         )
         self._publish("odom", odom)
-        imu = self._types["imu"]()
-        fill_imu(imu, robot.imu(), stamp_s=stamp_s, frame_id=frames.base)
-        self._publish("imu", imu)
-        joints = self._types["joint_states"]()
-        fill_joint_state(joints, self._joint_names, robot.joint_state(), stamp_s=stamp_s)
-        self._publish("joint_states", joints)
-        sim_time = self._types["sim_time"]()
+        if self._steps % PROPRIOCEPTION_EVERY == 0 or heartbeat:
+            imu = self._types["imu"]()
+            fill_imu(imu, robot.imu(), stamp_s=stamp_s, frame_id=frames.base)
+            self._publish("imu", imu)
+            joints = self._types["joint_states"]()
+            fill_joint_state(joints, self._joint_names, robot.joint_state(), stamp_s=stamp_s)
+            self._publish("joint_states", joints)
+        sim_time = self._reused["sim_time"]
         sim_time.data = robot.now_s()
         self._publish("sim_time", sim_time)
-        clock = self._types["clock"]()
+        clock = self._reused["clock"]
         fill_stamp(clock.clock, stamp_s)
         self._publish("clock", clock)
 
@@ -308,6 +319,7 @@ class SimBridge:
             observation = self.robot.observe()
         else:
             observation = self.robot.observe_depth(pixel_grids=request.grids)
+        self._frame_log.append((self._now_ns(), time.monotonic()))  # rendered: the messages start here
         info = self._types["color_info"]()
         fill_camera_info(info, observation.intrinsics, stamp_s=stamp_s, frame_id=optical)
         self._publish("color_info", info)
@@ -404,7 +416,7 @@ class SimBridge:
     def run(self) -> dict[str, Any]:
         """Serve until the mission ends, a signal, ``max_sim_s`` or ``max_wall_s``; return the result."""
         wall_start = time.monotonic()
-        self.publish_state()
+        self.publish_state(heartbeat=True)
         self._heartbeat.start()
         try:
             if self.options.mode == "lockstep":
@@ -433,7 +445,7 @@ class SimBridge:
         while not self._wall_exceeded(wall_start):
             self._executor.spin_once(timeout_sec=HEARTBEAT_S / 5)
             if time.monotonic() - self._last_step_wall_s > HEARTBEAT_S:
-                self.publish_state()
+                self.publish_state(heartbeat=True)
                 self._last_step_wall_s = time.monotonic()
 
     def _run_realtime(self, wall_start: float) -> None:
@@ -480,6 +492,8 @@ class SimBridge:
             "sim_time_s": self._now_ns() * 1e-9,
             "wall_time_s": wall_s,
             "frames_published": self._frames_published,
+            # (stamp ns, steady time the frame was rendered) per frame: the latency benchmark's send side.
+            "frame_log": self._frame_log[-4096:],
             "cmd_vel": {
                 "received": self._cmd_count,
                 "last": [

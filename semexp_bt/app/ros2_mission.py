@@ -45,6 +45,9 @@ from semexp_bt.app.strategies import resolve_strategy
 from semexp_bt.core.types import InvalidInputError
 from trees.loader import parse_mission
 
+#: How long (s) the executive waits for the bridge to acknowledge the outcome; after a halt, shorter.
+OUTCOME_ACK_S = 2.0
+HALTED_OUTCOME_ACK_S = 0.2
 #: The perception source that needs the bridge's ``/sim/...`` topics.
 SIMULATED_PERCEPTION = "emulator"
 
@@ -164,6 +167,7 @@ def run_ros2_mission(options: Ros2MissionOptions) -> dict[str, Any]:
         )
         halted_by: dict[str, str | None] | None = None
         result: MissionResult | None = None
+        mission_start = time.perf_counter()
         try:
             result = run_mission(
                 mission=mission,
@@ -182,6 +186,7 @@ def run_ros2_mission(options: Ros2MissionOptions) -> dict[str, Any]:
             halted_by = {"topic": None, "reason": "interrupted"}
         finally:
             robot.stop()
+        mission_wall_s = time.perf_counter() - mission_start
         if result is None:
             outcome = "halted" if halted_by and halted_by["topic"] else "interrupted"
             record = _halted_record(watch, recorder, outcome, instructions)
@@ -198,12 +203,16 @@ def run_ros2_mission(options: Ros2MissionOptions) -> dict[str, Any]:
                 "simulation": None
                 if info is None
                 else {"scene": info.scene.name, "seed": info.seed, "mode": info.mode},
+                "ros_time_at_start_s": robot.epoch_s,
+                "mission_wall_s": mission_wall_s,
                 "wall_time_s": time.perf_counter() - wall_start,
             }
         )
         if simulation:
+            # A halted robot may have lost its bridge: then nobody acknowledges, so do not wait long.
             record["outcome_reported"] = robot.report_outcome(
-                encode_outcome(record["outcome"], record["found_objects"])
+                encode_outcome(record["outcome"], record["found_objects"]),
+                timeout_s=OUTCOME_ACK_S if halted_by is None else HALTED_OUTCOME_ACK_S,
             )
         return record
     finally:

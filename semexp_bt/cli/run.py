@@ -138,7 +138,13 @@ def _run_ros2(args: argparse.Namespace) -> int:
     )
     if record["outcome"] == "success":
         return 0
-    return 3 if record["outcome"] == "halted" else 1
+    if record["outcome"] == "halted":
+        # The robot is stopped and the record written; a dead DDS peer can hold the interpreter's teardown
+        # (Fast DDS participants) for seconds, and a halted executive must be gone at once (docs/ros2.md).
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(3)
+    return 1
 
 
 def _run(args: argparse.Namespace) -> dict[str, Any]:
