@@ -183,6 +183,7 @@ class SimBridge:
         self._positions = [self.robot.base_pose().position()]
         self._cmd_twist = Twist.zero()
         self._cmd_arrived_s: float | None = None
+        self._cmd_arrived_ns = 0
         self._cmd_count = 0
         self._timeouts: list[dict[str, float]] = []
         self._timed_out = False
@@ -364,6 +365,7 @@ class SimBridge:
             twist = Twist.zero()
         self._cmd_twist = twist
         self._cmd_arrived_s = time.monotonic()
+        self._cmd_arrived_ns = self._now_ns()
         self._cmd_count += 1
         self._timed_out = False
 
@@ -409,7 +411,15 @@ class SimBridge:
         if silent_s > self.profile.command.driver_timeout_s:
             if not self._timed_out:
                 self._timed_out = True
-                self._timeouts.append({"sim_time_s": self._now_ns() * 1e-9, "silent_s": round(silent_s, 4)})
+                # Wall and simulated silence: on a loaded machine the control loop (and the world) may lag
+                # the wall clock; the robot moves only in simulated time.
+                self._timeouts.append(
+                    {
+                        "sim_time_s": self._now_ns() * 1e-9,
+                        "silent_s": round(silent_s, 4),
+                        "sim_silent_s": round((self._now_ns() - self._cmd_arrived_ns) * 1e-9, 4),
+                    }
+                )
             return Twist.zero()
         return self._cmd_twist
 
