@@ -17,7 +17,7 @@ Example:
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, TypeVar, cast
 
 from semexp_bt.app.strategies import Strategy
@@ -49,6 +49,8 @@ class ComponentRequest:
         start_pose: where a simulated robot starts.
         models: the real models of a models profile, shared by the ``models`` perception source and the
             ``llm`` relevance scorer (None when the run names no profile).
+        robot_options: backend-specific options (``ros2``: ``profile``, the robot profile's path or None;
+            ``simulation``, whether to read the simulation bridge's ``/sim/...`` topics).
     """
 
     seed: int
@@ -57,6 +59,8 @@ class ComponentRequest:
     scene: SceneSpec | None = None
     start_pose: Pose2D | None = None
     models: ModelStack | None = None
+
+    robot_options: Mapping[str, Any] = field(default_factory=dict)
 
     def require_models(self, component: str) -> ModelStack:
         """The models profile's stack, or a clear error naming the component that needs one."""
@@ -80,6 +84,16 @@ def _mujoco_robot(request: ComponentRequest) -> Robot:
     assert request.start_pose is not None  # checked by require_scene
     return MujocoRobot(
         scene=scene, fidelity=request.fidelity, start_pose=request.start_pose, seed=request.seed
+    )
+
+
+def _ros2_robot(request: ComponentRequest) -> Robot:
+    from robots.ros2_backend import Ros2Robot
+    from robots.ros2_profile import load_ros2_profile
+
+    options = request.robot_options
+    return Ros2Robot(
+        load_ros2_profile(options.get("profile")), simulation=bool(options.get("simulation", False))
     )
 
 
@@ -130,7 +144,10 @@ def _depth_arc_planner() -> LocalPlanner:
 
 
 #: Robot backends: name -> builder.
-ROBOT_BACKENDS: dict[str, Callable[[ComponentRequest], Robot]] = {"mujoco": _mujoco_robot}
+ROBOT_BACKENDS: dict[str, Callable[[ComponentRequest], Robot]] = {
+    "mujoco": _mujoco_robot,
+    "ros2": _ros2_robot,
+}
 #: Perception sources: name -> builder.
 PERCEPTION_SOURCES: dict[str, Callable[[ComponentRequest], PerceptionSource]] = {
     "emulator": _emulated_perception,

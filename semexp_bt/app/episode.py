@@ -42,8 +42,9 @@ from semexp_bt.app.runner import (
 )
 from semexp_bt.app.strategies import Strategy, resolve_strategy
 from semexp_bt.core.metrics import DEFAULT_CLEARANCE_M, DEFAULT_SUCCESS_RADIUS_M
-from semexp_bt.core.scene import SceneObject, SceneSpec
+from semexp_bt.core.scene import SceneSpec
 from sims.catalogue import build_scene
+from sims.episode_scoring import score_episode, snap_to_free
 from sims.episodes import Episode, sample_episode
 from sims.geodesic import GeodesicOracle
 from trees.loader import parse_mission
@@ -238,28 +239,6 @@ def subsample_path(positions: list[np.ndarray], *, step_m: float) -> list[list[f
     return kept
 
 
-def snap_to_free(
-    oracle: GeodesicOracle, xy: tuple[float, float], *, max_m: float
-) -> tuple[float, float] | None:
-    """The free cell centre nearest ``xy`` within ``max_m`` (memory nodes sit on object surfaces, inside
-    the inflated obstacles; the place the robot would stand to reach them is the nearest free cell)."""
-    if oracle.is_free(xy):
-        return xy
-    geometry = oracle.occupancy.geometry
-    free = oracle.occupancy.free
-    row, col = geometry.cell_of(xy)
-    reach = int(math.ceil(max_m / geometry.resolution_m))
-    r0, r1 = max(row - reach, 0), min(row + reach + 1, free.shape[0])
-    c0, c1 = max(col - reach, 0), min(col + reach + 1, free.shape[1])
-    rows, cols = np.nonzero(free[r0:r1, c0:c1])
-    if rows.size == 0:
-        return None
-    centres = geometry.centre_of(rows + r0, cols + c0)
-    dist = np.hypot(centres[:, 0] - xy[0], centres[:, 1] - xy[1])
-    best = int(np.argmin(dist))
-    return (float(centres[best, 0]), float(centres[best, 1])) if dist[best] <= max_m else None
-
-
 def with_oracle_nodes(
     decision_log: list[dict[str, Any]], *, oracle: GeodesicOracle, goal_id: int, success_radius_m: float
 ) -> list[dict[str, Any]]:
@@ -284,18 +263,6 @@ def with_oracle_nodes(
     return out
 
 
-def _reached_object(
-    scene: SceneSpec, anchor: tuple[float, float], final_xy: tuple[float, float], success_radius_m: float
-) -> SceneObject | None:
-    """The scene object nearest ``anchor`` (the confirmed target, or the final position), if the robot ended
-    within the success radius of it."""
-    candidates = [o for o in scene.objects if o.role != "wall"]
-    reached = min(candidates, key=lambda o: o.boundary_distance_m(anchor), default=None)
-    if reached is not None and reached.boundary_distance_m(final_xy) > success_radius_m:
-        return None
-    return reached
-
-
 def episode_record(
     *,
     options: EpisodeOptions,
@@ -310,35 +277,24 @@ def episode_record(
     """The episode's record: the executive's result scored against the scene's ground truth."""
     goal = scene.goal
     robot = result.services.robot
-    final = robot.base_pose()
-    final_xy = (final.x_m, final.y_m)
-    path = np.asarray(result.positions)
-    path_length = float(np.linalg.norm(np.diff(path, axis=0), axis=1).sum()) if len(path) > 1 else 0.0
-    safety = robot.safety()
-    collisions = [e for e in safety.events if e.kind == "collision"]
-    breaches = [e for e in safety.events if e.kind == "clearance" and e.distance_m < options.clearance_m]
     found = result.found_objects
-    anchor = tuple(found[-1]["position_m"][:2]) if found else final_xy
-    reached = _reached_object(scene, (anchor[0], anchor[1]), final_xy, options.success_radius_m)
-
+    score = score_episode(
+        scene=scene,
+        episode=episode,
+        outcome=result.outcome,
+        found_objects=found,
+        positions=result.positions,
+        final_pose=robot.base_pose(),
+        safety=robot.safety(),
+        success_radius_m=options.success_radius_m,
+        clearance_m=options.clearance_m,
+    )
     decisions = with_oracle_nodes(
         result.services.decision_log,
         oracle=oracle,
         goal_id=goal.object_id,
         success_radius_m=options.success_radius_m,
     )
-    distance_to_goal = goal.boundary_distance_m(final_xy)
-    declared = result.outcome == "success"
-    # For missions that move on after confirming (search, then return), success is judged where the
-    # robot stood when it confirmed the goal object; for the paper's mission that is the final position.
-    judged_xy = final_xy
-    for entry in found:
-        if (
-            entry.get("robot_xy")
-            and goal.boundary_distance_m(tuple(entry["robot_xy"])) <= options.success_radius_m
-        ):
-            judged_xy = tuple(entry["robot_xy"])
-    judged_distance = goal.boundary_distance_m(judged_xy)
     instructions = result.instructions
     return {
         "scene": scene.name,
@@ -348,31 +304,7 @@ def episode_record(
         "fidelity": fidelity,
         "instruction": instructions[0],
         "instructions": instructions,
-        "goal": {
-            "object_id": goal.object_id,
-            "name": goal.name,
-            "label": goal.label,
-            "category": goal.category,
-            "position_m": list(goal.position_m),
-        },
-        "start_pose": {"x_m": episode.start.x_m, "y_m": episode.start.y_m, "yaw_rad": episode.start.yaw_rad},
-        "outcome": result.outcome,
-        "success_declared": declared,
-        "success": bool(declared and judged_distance <= options.success_radius_m),
-        "success_radius_m": options.success_radius_m,
-        "final_pose": {"x_m": final.x_m, "y_m": final.y_m, "yaw_rad": final.yaw_rad},
-        "distance_to_goal_m": distance_to_goal,
-        "path_length_m": path_length,
-        "geodesic_length_m": float(episode.geodesic_length_m),
-        "collision": bool(collisions or breaches),
-        "collisions": len(collisions),
-        "clearance_breaches": len(breaches),
-        "min_clearance_m": float(safety.min_clearance_m) if math.isfinite(safety.min_clearance_m) else None,
-        "reached_object": None
-        if reached is None
-        else {"name": reached.name, "label": reached.label, "category": reached.category},
-        "reached_category": None if reached is None else reached.category,
-        "goal_category": goal.category,
+        **score,
         "found_objects": found,
         "decisions": decisions,
         "events": result.services.events,

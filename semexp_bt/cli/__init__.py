@@ -30,6 +30,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "scene": ("semexp_bt.cli.scene", "list scenes or render one"),
     "bench": ("semexp_bt.cli.bench", "benchmarks: core, ..."),
     "gait": ("semexp_bt.cli.gait", "train or inspect the RL gait"),
+    "sim-bridge": (
+        "semexp_bt.cli.sim_bridge",
+        "serve a simulated episode on ROS 2 topics (the Go1 driver's)",
+    ),
 }
 
 
