@@ -26,8 +26,10 @@ from typing import Any, Literal
 
 import numpy as np
 
+from semexp_bt.core.bounds import field_range
 from semexp_bt.core.config import ConfigError, config_from_dict
 from semexp_bt.core.types import FloatArray
+from semexp_bt.files.yaml_source import YamlSourceError, load_yaml_file
 
 #: The shipped Go1 profile.
 GO1_PROFILE_PATH = Path(__file__).resolve().parent / "go1" / "ros2.yaml"
@@ -42,10 +44,6 @@ SENSOR_STREAMS: tuple[str, ...] = ("odom", "imu", "joint_states", "color_image",
 
 class ProfileError(ConfigError):
     """A robot profile key is unknown, missing, of the wrong type or out of range (names file and key)."""
-
-
-def _range(lo: float, hi: float, *, lo_open: bool = False) -> dict[str, Any]:
-    return {"range": (lo, hi, lo_open, False)}
 
 
 @dataclass(frozen=True)
@@ -90,7 +88,7 @@ class TopicQos:
 
     reliability: Reliability = "reliable"
     durability: Durability = "volatile"
-    depth: int = field(default=5, metadata=_range(1, 1000))
+    depth: int = field(default=5, metadata=field_range(1, 1000))
     """History depth (keep last)."""
 
 
@@ -113,7 +111,7 @@ class QosTable:
 
 
 def _deadline(seconds: float) -> Any:
-    return field(default=seconds, metadata=_range(0.0, 60.0, lo_open=True))
+    return field(default=seconds, metadata=field_range(0.0, 60.0, low_open=True))
 
 
 @dataclass(frozen=True)
@@ -135,10 +133,10 @@ class Deadlines:
 class Command:
     """The velocity command stream."""
 
-    rate_hz: float = field(default=25.0, metadata=_range(20.0, 1000.0))
+    rate_hz: float = field(default=25.0, metadata=field_range(20.0, 1000.0))
     """The last twist is republished this often: the driver zeroes the motion ``driver_timeout_s`` after
     the last command, so a mission that holds a command must keep sending it."""
-    driver_timeout_s: float = field(default=0.4, metadata=_range(0.0, 10.0, lo_open=True))
+    driver_timeout_s: float = field(default=0.4, metadata=field_range(0.0, 10.0, low_open=True))
     """The driver's command timeout (the simulation bridge obeys the same)."""
 
 
@@ -150,13 +148,13 @@ class CameraMount:
     0.05 m above the trunk centre, pitched 10 deg down). Measure your robot's mount and write it here.
     """
 
-    x_m: float = field(default=0.28, metadata=_range(-5.0, 5.0))
-    y_m: float = field(default=0.0, metadata=_range(-5.0, 5.0))
-    z_m: float = field(default=0.05, metadata=_range(-5.0, 5.0))
-    roll_rad: float = field(default=0.0, metadata=_range(-math.pi, math.pi))
-    pitch_rad: float = field(default=math.radians(10.0), metadata=_range(-math.pi / 2, math.pi / 2))
+    x_m: float = field(default=0.28, metadata=field_range(-5.0, 5.0))
+    y_m: float = field(default=0.0, metadata=field_range(-5.0, 5.0))
+    z_m: float = field(default=0.05, metadata=field_range(-5.0, 5.0))
+    roll_rad: float = field(default=0.0, metadata=field_range(-math.pi, math.pi))
+    pitch_rad: float = field(default=math.radians(10.0), metadata=field_range(-math.pi / 2, math.pi / 2))
     """Positive pitches the camera down (REP-103: rotation about +y)."""
-    yaw_rad: float = field(default=0.0, metadata=_range(-math.pi, math.pi))
+    yaw_rad: float = field(default=0.0, metadata=field_range(-math.pi, math.pi))
 
 
 @dataclass(frozen=True)
@@ -164,7 +162,7 @@ class Camera:
     """The RGB-D pair."""
 
     mount: CameraMount = field(default_factory=CameraMount)
-    pair_tolerance_s: float = field(default=0.005, metadata=_range(0.0, 1.0))
+    pair_tolerance_s: float = field(default=0.005, metadata=field_range(0.0, 1.0))
     """Colour and aligned depth frames are a pair when their stamps differ by at most this (realsense-ros
     stamps both with the colour frame's time)."""
 
@@ -222,23 +220,17 @@ def rotation_from_rpy(roll_rad: float, pitch_rad: float, yaw_rad: float) -> Floa
 
 
 def read_profile_document(path: Path) -> Any:
-    """The parsed YAML of a profile file: the one place a profile is read from disk.
+    """The parsed YAML of a profile file, read by the product's one safe YAML reader
+    (``semexp_bt.files.yaml_source``: not a regular file, too big, not UTF-8, tabs, deep nesting, alias
+    bombs, duplicate keys and non-plain tags are refused).
 
     Raises:
-        ProfileError: the file is missing or is not valid YAML (naming the file and line).
+        ProfileError: one line naming the file (and the line and column where there is one).
     """
-    import yaml
-
     try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as error:
-        raise ProfileError(f"{path}: cannot read the robot profile ({error.strerror})") from None
-    try:
-        return yaml.safe_load(text)
-    except yaml.YAMLError as error:
-        mark = getattr(error, "problem_mark", None)
-        where = f"{path}:{mark.line + 1}" if mark is not None else str(path)
-        raise ProfileError(f"{where}: not valid YAML ({getattr(error, 'problem', error)})") from None
+        return load_yaml_file(path)
+    except YamlSourceError as error:
+        raise ProfileError(f"robot profile {error}") from None
 
 
 def _check_strings(value: Any, where: str, prefix: str) -> None:

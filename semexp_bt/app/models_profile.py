@@ -29,6 +29,7 @@ from pathlib import Path
 from typing import Any, get_type_hints
 
 from semexp_bt.core.config import ConfigError, config_from_dict
+from semexp_bt.files.yaml_source import YamlSourceError, load_yaml_file
 from semexp_bt.perception.model_config import (
     DEVICE,
     ENV_NAME,
@@ -39,7 +40,6 @@ from semexp_bt.perception.model_config import (
     SimulationConfig,
     VLMConfig,
 )
-from trees.yaml_source import YamlSourceError, load_yaml_file
 
 #: The environment variable the command-line endpoints read their key from (when it is set).
 FLAG_KEY_ENV = "OPENAI_API_KEY"
@@ -54,7 +54,7 @@ SECTIONS: dict[str, type] = {
 
 
 def read_models_profile(path: Path) -> ModelsProfile:
-    """The profile in a YAML file, read by the product's one safe YAML reader (``trees.yaml_source``: not a
+    """The profile in a YAML file, read by the product's one safe YAML reader (``semexp_bt.files.yaml_source``: not a
     regular file, too big, not UTF-8, tabs, deep nesting, alias bombs, duplicate keys and non-plain tags
     are refused).
 
