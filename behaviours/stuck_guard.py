@@ -27,6 +27,7 @@ from behaviours.spec import BuildContext, ParamSpec
 
 class StuckGuard(SemExpBehaviour):
     READS = ("subgoal",)
+    WRITES = ("nav_failure",)
     PARAMS = {
         "window_s": ParamSpec("float", doc="progress is judged over this window, s", default=8.0, gt=0.0),
         "min_progress_m": ParamSpec("float", doc="least travel within the window, m", default=0.25, gt=0.0),
@@ -95,6 +96,7 @@ class StuckGuard(SemExpBehaviour):
             )
             best_distance_m = self._approach[1] if self._approach is not None else float("nan")
             self.services.log_event("no_progress", distance_m=round(best_distance_m, 3))
+            self.write("nav_failure", "stuck")
             return py_trees.common.Status.FAILURE
         t0, x0, y0, yaw0 = self._anchor
         pose = self.services.robot.base_pose()
@@ -106,5 +108,6 @@ class StuckGuard(SemExpBehaviour):
         if self.now_s() - t0 > self.window_s:
             self.feedback_message = f"stuck: {moved:.2f} m in {self.window_s:.0f} s"
             self.services.log_event("stuck", moved_m=round(moved, 3))
+            self.write("nav_failure", "stuck")
             return py_trees.common.Status.FAILURE
         return py_trees.common.Status.RUNNING

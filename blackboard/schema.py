@@ -27,7 +27,8 @@ import py_trees
 
 from semexp_bt.core.memory import TopologicalMemory
 from semexp_bt.core.types import Detection, Observation, Pose2D, SafetyState, SceneEvidence, Subgoal, Twist
-from semexp_bt.nav.local_map import OccupancyMap
+from semexp_bt.nav.costmap import Costmap
+from semexp_bt.nav.global_planner import GlobalPlan
 
 
 @dataclass(frozen=True)
@@ -99,9 +100,22 @@ SCHEMA: dict[str, KeySpec] = dict(
         _spec("target", (object,), ("Arbitrate", "ConfirmTarget"), "the last arbitrated Target or None"),
         _spec(
             "local_map",
-            (OccupancyMap, _NONE),
-            ("runner", "Perceive", "LocalPlan"),
-            "the occupancy map built from depth (odometry frame) that paths are planned on",
+            (Costmap, _NONE),
+            ("runner", "Perceive", "UpdateCostmap", "ClearCostmapAroundRobot"),
+            "the costmap built from depth and odometry (semexp_bt.nav.costmap.Costmap, odometry frame): "
+            "paths are planned on it, frontiers come from it",
+        ),
+        _spec(
+            "global_plan",
+            (GlobalPlan, _NONE),
+            ("ComputePathToSubgoal",),
+            "the last global plan to the subgoal (semexp_bt.nav.global_planner.GlobalPlan) or None",
+        ),
+        _spec(
+            "nav_failure",
+            (str, _NONE),
+            ("ComputePathToSubgoal", "FollowPath", "StuckGuard"),
+            "why navigation to the subgoal last failed (no_path, start_blocked, blocked, stuck) or None",
         ),
         _spec(
             "subgoal",
@@ -113,16 +127,16 @@ SCHEMA: dict[str, KeySpec] = dict(
         _spec(
             "cmd_twist",
             (Twist,),
-            ("LocalPlan", "RotateInPlace", "BackUp", "StopRobot"),
+            ("FollowPath", "RotateInPlace", "Spin", "BackUp", "Wait", "StopRobot"),
             "the base velocity command the gait executes",
         ),
         _spec(
             "cmd_stamp_s",
             (float,),
-            ("LocalPlan", "RotateInPlace", "BackUp", "StopRobot"),
+            ("FollowPath", "RotateInPlace", "Spin", "BackUp", "Wait", "StopRobot"),
             "backend time of the last cmd_twist write; the gait's watchdog stops a stale command",
         ),
-        _spec("plan", (object,), ("LocalPlan",), "the last PlanResult or None"),
+        _spec("plan", (object,), ("FollowPath",), "the controller's last ControlResult or None"),
         _spec("found_objects", (list,), ("ConfirmTarget",), "confirmed targets: label, position, stamp"),
         _spec(
             "mission_outcome",

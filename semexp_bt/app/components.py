@@ -28,7 +28,7 @@ if TYPE_CHECKING:
     from robots.gait_policy import GaitController
     from robots.interface import Fidelity, Robot
     from semexp_bt.core.scene import SceneSpec
-    from semexp_bt.nav.planner import LocalPlanner
+    from semexp_bt.nav.controller import PathController
     from semexp_bt.perception.interface import PerceptionSource
 
 
@@ -96,10 +96,16 @@ def _lexical_relevance() -> CachedRelevance:
     return CachedRelevance(LexicalRelevance())
 
 
-def _depth_arc_planner() -> LocalPlanner:
-    from semexp_bt.nav.planner import DepthArcPlanner
+def _dwb_controller() -> PathController:
+    from semexp_bt.nav.dwb import DwbController
 
-    return DepthArcPlanner()
+    return DwbController()
+
+
+def _pure_pursuit_controller() -> PathController:
+    from semexp_bt.nav.pure_pursuit import RegulatedPurePursuit
+
+    return RegulatedPurePursuit()
 
 
 #: Robot backends: name -> builder.
@@ -113,8 +119,10 @@ RELEVANCE_SCORERS: dict[str, Callable[[], CachedRelevance]] = {
     "embedding": _embedding_relevance,
     "lexical": _lexical_relevance,
 }
-#: Local planners: name -> builder.
-PLANNERS: dict[str, Callable[[], LocalPlanner]] = {"depth_arc": _depth_arc_planner}
+#: Path-following controllers on the costmap (docs/planner.md compares them): name -> builder.
+PLANNERS: dict[str, Callable[[], PathController]] = {"dwb": _dwb_controller, "rpp": _pure_pursuit_controller}
+#: The controller a mission uses unless told otherwise.
+DEFAULT_PLANNER = "rpp"
 
 _T = TypeVar("_T")
 
@@ -141,8 +149,8 @@ def build_relevance(name: str) -> CachedRelevance:
     return _lookup(RELEVANCE_SCORERS, "relevance scorer", name)()
 
 
-def build_planner(name: str) -> LocalPlanner:
-    """The local planner called ``name``."""
+def build_planner(name: str) -> PathController:
+    """The path-following controller called ``name``."""
     return _lookup(PLANNERS, "planner", name)()
 
 

@@ -13,7 +13,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from semexp_bt.app.components import PLANNERS, RELEVANCE_SCORERS, ROBOT_BACKENDS
+from semexp_bt.app.components import DEFAULT_PLANNER, PLANNERS, RELEVANCE_SCORERS, ROBOT_BACKENDS
 
 #: Backends whose missions run in a simulated scene (they need ``--scene``).
 SIMULATED_BACKENDS = ("mujoco",)
@@ -44,7 +44,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default="embedding",
         help="semantic relevance scorer (embedding: offline MiniLM; lexical: no torch)",
     )
-    parser.add_argument("--planner", choices=sorted(PLANNERS), default="depth_arc", help="local planner")
+    parser.add_argument(
+        "--planner", choices=sorted(PLANNERS), default=DEFAULT_PLANNER, help="path-following controller"
+    )
     parser.add_argument(
         "--config", type=Path, default=None, help="YAML of config overrides (the last layer; docs/config.md)"
     )

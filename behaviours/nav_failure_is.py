@@ -1,0 +1,56 @@
+"""NavFailureIs: a condition on why navigation to the subgoal last failed (``nav_failure``).
+
+Semantics: SUCCESS when ``nav_failure`` is one of ``kinds``, FAILURE otherwise (also when nothing
+failed). The recovery branch uses it to give an unreachable subgoal up at once (``no_path``,
+``start_blocked``) instead of spinning and backing up first.
+
+Example:
+    - type: NavFailureIs
+      name: Unreachable
+      params: {kinds: [no_path, start_blocked]}
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import py_trees
+
+from behaviours.base import SemExpBehaviour
+from behaviours.spec import BuildContext, ParamSpec
+
+#: The values ``nav_failure`` takes (who writes them: ComputePathToSubgoal, FollowPath, StuckGuard).
+NAV_FAILURES = ("no_path", "start_blocked", "blocked", "stuck")
+
+
+class NavFailureIs(SemExpBehaviour):
+    READS = ("nav_failure",)
+    PARAMS = {
+        "kinds": ParamSpec(
+            "list",
+            doc=f"failure kinds that make it succeed (of {', '.join(NAV_FAILURES)})",
+            items="str",
+            default=["no_path", "start_blocked"],
+        ),  # fmt: skip
+    }
+
+    def __init__(
+        self,
+        name: str,
+        *,
+        kinds: list[str] | None = None,
+        context: BuildContext,
+        remap: Mapping[str, str] | None = None,
+    ) -> None:
+        super().__init__(name, context=context, remap=remap)
+        self.kinds = tuple(kinds if kinds is not None else ("no_path", "start_blocked"))
+        unknown = sorted(set(self.kinds) - set(NAV_FAILURES))
+        if unknown:
+            raise ValueError(
+                f"NavFailureIs '{name}': unknown kinds {unknown}; expected some of {list(NAV_FAILURES)}"
+            )
+
+    def update(self) -> py_trees.common.Status:
+        failure = self.read("nav_failure")
+        self.feedback_message = f"nav_failure = {failure}"
+        return py_trees.common.Status.SUCCESS if failure in self.kinds else py_trees.common.Status.FAILURE
