@@ -18,6 +18,7 @@ Nav2's DWB samples velocities in the dynamic window, simulates each for a short 
      camera only sees forward);
    - ``obstacle``: mean of ``exp(-obstacle_decay (clearance - min_clearance))`` over the states;
    - ``smooth``: the change of yaw rate from the last command (no dithering, Nav2's oscillation critic);
+   - ``stall``: standing still while the path is not done;
 
 4. commands the best one's first twist, regulated by its clearance.
 
@@ -64,6 +65,8 @@ class DwbConfig:
     weight_align: float = 1.5
     weight_obstacle: float = 1.0
     weight_smooth: float = 0.3
+    weight_stall: float = 1.0
+    """Cost of standing still (the path is not done: some motion must be better than none)."""
     obstacle_decay: float = 4.0
     """1/m: how fast the obstacle critic falls off with clearance."""
     path_lookahead_points: int = 30
@@ -152,6 +155,7 @@ class DwbController:
             + cfg.weight_align * align
             + cfg.weight_obstacle * obstacle
             + cfg.weight_smooth * smooth
+            + cfg.weight_stall * ((np.abs(targets[idx, 0]) < 1e-6) & (np.abs(targets[idx, 1]) < 1e-6))
         )
         best = int(np.argmin(total))
         k = idx[best]

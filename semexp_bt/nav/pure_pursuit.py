@@ -10,12 +10,14 @@ Per cycle:
    curvature (radius below ``regulated_min_radius_m``), by the approach to the path's end and by the
    clearance (:func:`~semexp_bt.nav.controller.regulate`);
 4. the arc of that twist is rolled out for ``collision_horizon_s`` and checked by the safety rules; when
-   it is refused, at half and at a quarter of the speed; when all are refused: ``blocked``. A turn in
-   place that is refused (a corner of the footprint would sweep into something) falls back to a slow
-   arc, a slow step ahead or a step back onto known free cells.
+   it is refused, at half and at a quarter of the speed.
 
-It does not search for a way round an obstacle: it trusts the global plan, which is replanned when the
-costmap changes, and stops where the plan would take the footprint too close.
+Where Nav2's controller stops (every pursuit motion refused, typically a turn in place that would sweep
+a corner of the long Go1 body into a wall), this one hands the cycle to the DWB sampler
+(:class:`~semexp_bt.nav.dwb.DwbController`), which searches every admissible arc, backward ones onto
+known free cells included: a three-point turn out of a tight spot instead of a stop. ``blocked`` only
+when that search finds nothing either.
+
 """
 
 from __future__ import annotations
@@ -36,7 +38,7 @@ from semexp_bt.nav.controller import (
     rollout,
 )
 from semexp_bt.nav.costmap import Costmap
-from semexp_bt.nav.dwb import _remaining_length
+from semexp_bt.nav.dwb import DwbConfig, DwbController, _remaining_length
 from semexp_bt.nav.global_planner import GlobalPlan
 
 
@@ -68,10 +70,12 @@ class RegulatedPurePursuit:
         self.config = config or PurePursuitConfig()
         self._progress = 0
         self._path_id: int | None = None
+        self._fallback = DwbController(DwbConfig(limits=self.config.limits, rules=self.config.rules))
 
     def reset(self) -> None:
         self._progress = 0
         self._path_id = None
+        self._fallback.reset()
 
     def compute(
         self, *, plan: GlobalPlan, costmap: Costmap, pose: Pose2D, velocity: Twist, stamp_s: float
@@ -104,10 +108,8 @@ class RegulatedPurePursuit:
                 ),
                 bearing,
             )
-            # A turn in place the footprint cannot make (a corner would sweep into something): creep round
-            # on an arc instead, or step back onto known free cells.
-            options = [(0.0, rate), (0.15, 0.5 * rate), (0.1, 0.0), (-0.15, 0.0)]
-            return self._checked(costmap, pose, velocity, options, "rotating")
+            result = self._checked(costmap, pose, velocity, [(0.0, rate)], "rotating")
+            return result if result.status != "blocked" else self._search(plan, costmap, pose, velocity, stamp_s)
         curvature = 2.0 * left / max(distance * distance, 1e-6)
         speed = cfg.limits.max_speed_mps
         radius = 1.0 / max(abs(curvature), 1e-9)
@@ -119,7 +121,14 @@ class RegulatedPurePursuit:
             speed *= cfg.limits.max_yaw_rate_radps / abs(rate)
             rate = math.copysign(cfg.limits.max_yaw_rate_radps, rate)
         options = [(speed * f, rate * f) for f in (1.0, 0.5, 0.25)]
-        return self._checked(costmap, pose, velocity, options, "tracking")
+        result = self._checked(costmap, pose, velocity, options, "tracking")
+        return result if result.status != "blocked" else self._search(plan, costmap, pose, velocity, stamp_s)
+
+    def _search(
+        self, plan: GlobalPlan, costmap: Costmap, pose: Pose2D, velocity: Twist, stamp_s: float
+    ) -> ControlResult:
+        """When pursuit's own motions are all refused: search every admissible arc (the DWB sampler)."""
+        return self._fallback.compute(plan=plan, costmap=costmap, pose=pose, velocity=velocity, stamp_s=stamp_s)
 
     def _checked(
         self, costmap: Costmap, pose: Pose2D, velocity: Twist, options: list[tuple[float, float]], status: str
