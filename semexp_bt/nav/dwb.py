@@ -22,7 +22,8 @@ Nav2's DWB samples velocities in the dynamic window, simulates each for a short 
 
 4. commands the best one's first twist, regulated by its clearance.
 
-With nothing admissible it reports ``blocked`` and commands zero: the behaviour tree's recovery takes over.
+With nothing admissible (or nothing better than standing still) it reports ``blocked`` and commands zero:
+the behaviour tree's recovery takes over.
 """
 
 from __future__ import annotations
@@ -162,7 +163,10 @@ class DwbController:
         v, w = regulate(float(targets[k, 0]), float(targets[k, 1]), float(least[k]), rules=cfg.rules)
         twist = Twist(linear_x_mps=v, angular_z_radps=w)
         self._last = twist
-        status = "rotating" if abs(v) < 1e-6 and abs(w) > 1e-6 else "tracking"
+        if abs(v) < 1e-6 and abs(w) < 1e-6:
+            status = "blocked"  # standing still is the best there is: no admissible motion helps
+        else:
+            status = "rotating" if abs(v) < 1e-6 else "tracking"
         scores = {
             "progress": float(progress[best]),
             "path": float(path_cost[best]),

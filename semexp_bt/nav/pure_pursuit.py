@@ -109,7 +109,9 @@ class RegulatedPurePursuit:
                 bearing,
             )
             result = self._checked(costmap, pose, velocity, [(0.0, rate)], "rotating")
-            return result if result.status != "blocked" else self._search(plan, costmap, pose, velocity, stamp_s)
+            return (
+                result if result.status != "blocked" else self._search(plan, costmap, pose, velocity, stamp_s)
+            )
         curvature = 2.0 * left / max(distance * distance, 1e-6)
         speed = cfg.limits.max_speed_mps
         radius = 1.0 / max(abs(curvature), 1e-9)
@@ -128,7 +130,9 @@ class RegulatedPurePursuit:
         self, plan: GlobalPlan, costmap: Costmap, pose: Pose2D, velocity: Twist, stamp_s: float
     ) -> ControlResult:
         """When pursuit's own motions are all refused: search every admissible arc (the DWB sampler)."""
-        return self._fallback.compute(plan=plan, costmap=costmap, pose=pose, velocity=velocity, stamp_s=stamp_s)
+        return self._fallback.compute(
+            plan=plan, costmap=costmap, pose=pose, velocity=velocity, stamp_s=stamp_s
+        )
 
     def _checked(
         self, costmap: Costmap, pose: Pose2D, velocity: Twist, options: list[tuple[float, float]], status: str
