@@ -38,7 +38,11 @@ class ComputePathToSubgoal(SemExpBehaviour):
         ),
         "max_plan_age_s": ParamSpec("float", doc="replan anyway after this long, s", default=4.0, gt=0.0),
         "goal_tolerance_m": ParamSpec(
-            "float", doc="passable cells this close to the subgoal are goals, m", default=0.9, gt=0.0
+            "float",
+            doc="passable cells this close to the subgoal are goals, m (0.8: with FollowPath's 0.15 m at the "
+            "path's end, the robot stops within r_s = 1 m of a subgoal on an object)",
+            default=0.8,
+            gt=0.0,
         ),
     }
 
@@ -48,7 +52,7 @@ class ComputePathToSubgoal(SemExpBehaviour):
         *,
         replan_period_s: float = 1.0,
         max_plan_age_s: float = 4.0,
-        goal_tolerance_m: float = 0.9,
+        goal_tolerance_m: float = 0.8,
         context: BuildContext,
         remap: Mapping[str, str] | None = None,
     ) -> None:

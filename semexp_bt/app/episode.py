@@ -208,7 +208,7 @@ def privileged_navigation(
     goal_id = scene.goal.object_id
     path = oracle.path_to_object((start.x_m, start.y_m), goal_id, success_radius_m=success_radius_m)
     standpoint = (float(path[-1][0]), float(path[-1][1])) if len(path) else knowledge.goal_xy
-    goal_point = oracle.nearest_point_on_object(standpoint, goal_id)
+    goal_point = nearest_point_on_main_shape(scene.goal, standpoint)
     geometry = oracle.occupancy.geometry
     border = PRIVILEGED_MAP_BORDER_CELLS
     occupied = np.pad(oracle.occupancy.occupied, border, constant_values=True)
@@ -222,6 +222,20 @@ def privileged_navigation(
         standpoint_xy=standpoint,
         occupancy=(occupied, lower_left, geometry.resolution_m),
     )
+
+
+def nearest_point_on_main_shape(obj: SceneObject, xy: tuple[float, float]) -> tuple[float, float]:
+    """The point of the object's main box or cylinder nearest ``xy`` (SR measures to that shape:
+    ``SceneObject.boundary_distance_m``)."""
+    dx, dy = xy[0] - obj.position_m[0], xy[1] - obj.position_m[1]
+    if obj.shape == "cylinder":
+        norm = math.hypot(dx, dy)
+        scale = min(1.0, obj.size_m[0] / norm) if norm > 0 else 0.0
+        return (obj.position_m[0] + dx * scale, obj.position_m[1] + dy * scale)
+    c, s = math.cos(obj.yaw_rad), math.sin(obj.yaw_rad)
+    lx = max(-obj.size_m[0], min(obj.size_m[0], c * dx + s * dy))
+    ly = max(-obj.size_m[1], min(obj.size_m[1], -s * dx + c * dy))
+    return (obj.position_m[0] + c * lx - s * ly, obj.position_m[1] + s * lx + c * ly)
 
 
 def subsample_path(positions: list[np.ndarray], *, step_m: float) -> list[list[float]]:

@@ -30,6 +30,7 @@ from dataclasses import dataclass, field
 from typing import Literal, Protocol, runtime_checkable
 
 import numpy as np
+import numpy.typing as npt
 
 from semexp_bt.core.types import FloatArray, Pose2D, Twist
 from semexp_bt.nav.costmap import Costmap
@@ -112,13 +113,13 @@ def footprint_clearance(costmap: Costmap, x: FloatArray, y: FloatArray, yaw: Flo
     return d.min(axis=-1) - radius
 
 
-def discs_known(costmap: Costmap, x: FloatArray, y: FloatArray, yaw: FloatArray) -> FloatArray:
+def discs_known(costmap: Costmap, x: FloatArray, y: FloatArray, yaw: FloatArray) -> npt.NDArray[np.bool_]:
     """Whether every covering disc centre of the footprint lies on observed cells, at every pose."""
     centres, _ = costmap.footprint.covering_discs
     c, s = np.cos(yaw)[..., None], np.sin(yaw)[..., None]
     px = x[..., None] + c * centres[:, 0] - s * centres[:, 1]
     py = y[..., None] + s * centres[:, 0] + c * centres[:, 1]
-    return costmap.known_at(np.stack([px, py], axis=-1)).all(axis=-1)
+    return np.asarray(costmap.known_at(np.stack([px, py], axis=-1)).all(axis=-1))
 
 
 def rollout(

@@ -263,7 +263,7 @@ class Costmap:
         self, distance_m: FloatArray | None = None, observed: npt.NDArray[np.bool_] | None = None
     ) -> npt.NDArray[np.uint8]:
         """Nav2 costs (0-255) from a distance field (default: the whole grid's)."""
-        d = self.distance_m if distance_m is None else distance_m
+        d = np.asarray(self.distance_m if distance_m is None else distance_m, dtype=float)
         seen = self.observed if observed is None else observed
         return inflation_cost(d, seen, inscribed_radius_m=self.inscribed_radius_m,
                               resolution_m=self.config.resolution_m,

@@ -36,6 +36,7 @@ import numpy as np
 from semexp_bt.core.types import FloatArray, Pose2D, Twist
 from semexp_bt.nav.controller import (
     ControlResult,
+    ControlStatus,
     MotionLimits,
     SafetyRules,
     admissible,
@@ -163,6 +164,7 @@ class DwbController:
         v, w = regulate(float(targets[k, 0]), float(targets[k, 1]), float(least[k]), rules=cfg.rules)
         twist = Twist(linear_x_mps=v, angular_z_radps=w)
         self._last = twist
+        status: ControlStatus
         if abs(v) < 1e-6 and abs(w) < 1e-6:
             status = "blocked"  # standing still is the best there is: no admissible motion helps
         else:

@@ -71,7 +71,7 @@ class GlobalPlannerConfig:
     """Step cost multiplier through never-observed cells."""
     cost_weight: float = 2.0
     """Extra step cost multiplier at the highest non-lethal inflation cost (252)."""
-    goal_tolerance_m: float = 0.9
+    goal_tolerance_m: float = 0.8
     """Passable cells within this distance of the subgoal are goals."""
     goal_gap_weight: float = 4.0
     """Price (m of travel) per metre a goal cell lies from the subgoal."""
@@ -265,8 +265,8 @@ def _pooled_layers(
     # The block's mean is the distance field at the planning cell's centre (bilinear between the fine
     # cells' centres), within a centimetre; the controller checks the footprint on the fine field.
     distance = distance.reshape(rows, factor, cols, factor).mean(axis=(1, 3))
-    observed = observed.reshape(rows, factor, cols, factor).any(axis=(1, 3))
-    return distance.astype(float), observed
+    seen: npt.NDArray[np.bool_] = np.asarray(observed.reshape(rows, factor, cols, factor).any(axis=(1, 3)))
+    return distance.astype(float), seen
 
 
 def _lattice_graph(
