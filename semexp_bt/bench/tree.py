@@ -147,7 +147,9 @@ def time_ticks(*, planner: Any, ticks: int, seed: int, navigation: bool) -> dict
 def run_tree_bench(*, ticks: int = 20_000, seed: int = 0) -> dict[str, Any]:
     rows = {
         "tree": time_ticks(planner=PurePursuitStandIn(), ticks=ticks, seed=seed, navigation=False),
-        "tree+navigation": time_ticks(planner=RegulatedPurePursuit(), ticks=ticks, seed=seed, navigation=True),
+        "tree+navigation": time_ticks(
+            planner=RegulatedPurePursuit(), ticks=ticks, seed=seed, navigation=True
+        ),
     }
     return {
         "seed": seed,
