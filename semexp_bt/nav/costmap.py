@@ -149,9 +149,6 @@ class Costmap:
         self.observed = np.zeros((size, size), dtype=bool)
         self.distance_m = np.full((size, size), np.float32(cfg.inflation_radius_m), dtype=np.float32)
         self._max_cells = int(math.floor(cfg.max_extent_m / cfg.resolution_m))
-        self._pad_cache: dict[str, tuple[object, npt.NDArray]] = {}
-        self._edits = 0  # bumped whenever ``observed`` changes
-        self._distance_edits = 0  # bumped whenever ``distance_m`` changes
 
     # ------------------------------------------------------------------ geometry
     @property
@@ -247,17 +244,29 @@ class Costmap:
         return padded.ravel()[r * cols + c]
 
     def _padded(self, layer: str) -> npt.NDArray:
-        """A layer with a one-cell border (the cap for distances, unobserved), cached until it changes."""
-        version = (self._distance_edits if layer == "distance" else self._edits, self.shape)
-        cached = self._pad_cache.get(layer)
-        if cached is not None and cached[0] == version:
-            return cached[1]
-        if layer == "distance":
-            array = np.pad(self.distance_m, 1, constant_values=np.float32(self.config.inflation_radius_m))
-        else:
-            array = np.pad(self.observed, 1, constant_values=False)
-        self._pad_cache[layer] = (version, array)
-        return array
+        """A layer with its one-cell border (the cap for distances, unobserved): the storage itself."""
+        return self._distance_pad if layer == "distance" else self._observed_pad
+
+    # The distance and observed layers live inside arrays one cell larger on every side, so that look-ups
+    # near the edge need no bounds checks and no copy per query.
+    @property
+    def distance_m(self) -> npt.NDArray[np.float32]:
+        """Distance (m) from each cell to the nearest lethal cell, capped at the inflation radius."""
+        return self._distance_pad[1:-1, 1:-1]
+
+    @distance_m.setter
+    def distance_m(self, value: npt.NDArray[np.float32]) -> None:
+        cap = np.float32(self.config.inflation_radius_m)
+        self._distance_pad = np.pad(np.asarray(value, dtype=np.float32), 1, constant_values=cap)
+
+    @property
+    def observed(self) -> npt.NDArray[np.bool_]:
+        """Whether some ray (or the footprint) has said anything about each cell."""
+        return self._observed_pad[1:-1, 1:-1]
+
+    @observed.setter
+    def observed(self, value: npt.NDArray[np.bool_]) -> None:
+        self._observed_pad = np.pad(np.asarray(value, dtype=bool), 1, constant_values=False)
 
     def cost(
         self, distance_m: FloatArray | None = None, observed: npt.NDArray[np.bool_] | None = None
@@ -389,7 +398,6 @@ class Costmap:
         under = under.reshape(shape) & ~hit
         lo[under] = np.minimum(lo[under], 0.0)
         self.observed[window] |= clear_only | hit | under
-        self._edits += 1
         after = lo > cfg.lethal_log_odds
         changed = before != after
         stats.marked_cells = int(np.count_nonzero(hit))
@@ -434,7 +442,6 @@ class Costmap:
             dist = np.minimum(dist, cap).astype(np.float32)
         else:
             dist = np.full(lethal.shape, cap, dtype=np.float32)
-        self._distance_edits += 1
         self.distance_m[out_r0:out_r1, out_c0:out_c1] = dist[
             out_r0 - in_r0 : out_r1 - in_r0, out_c0 - in_c0 : out_c1 - in_c0
         ]
@@ -462,7 +469,6 @@ class Costmap:
         had_lethal = bool((self.log_odds[window][ring] > self.config.lethal_log_odds).any())
         self.log_odds[window][ring] = 0.0
         self.observed[window][ring] = False
-        self._edits += 1
         if had_lethal:
             self._update_distances(r0, c0, r1, c1)
             self.revision += 1
@@ -491,7 +497,6 @@ class Costmap:
         cfg = self.config
         self.log_odds = np.where(occupied, cfg.max_log_odds, cfg.min_log_odds).astype(np.float32)
         self.observed = np.ones((rows, cols), dtype=bool)
-        self._edits += 1
         self.distance_m = np.full((rows, cols), np.float32(cfg.inflation_radius_m), dtype=np.float32)
         self._update_distances(0, 0, rows, cols)
         self.revision += 1
