@@ -21,6 +21,8 @@ from behaviours.spec import BuildContext, ParamSpec
 
 #: The values ``nav_failure`` takes (who writes them: ComputePathToSubgoal, FollowPath, StuckGuard).
 NAV_FAILURES = ("no_path", "start_blocked", "blocked", "stuck")
+#: The kinds that mean no plan reaches the subgoal (the default; never mutated: the node keeps a tuple).
+UNREACHABLE_KINDS = ["no_path", "start_blocked"]
 
 
 class NavFailureIs(SemExpBehaviour):
@@ -30,7 +32,7 @@ class NavFailureIs(SemExpBehaviour):
             "list",
             doc=f"failure kinds that make it succeed (of {', '.join(NAV_FAILURES)})",
             items="str",
-            default=["no_path", "start_blocked"],
+            default=UNREACHABLE_KINDS,
         ),  # fmt: skip
     }
 
@@ -38,12 +40,12 @@ class NavFailureIs(SemExpBehaviour):
         self,
         name: str,
         *,
-        kinds: list[str] | None = None,
+        kinds: list[str] = UNREACHABLE_KINDS,
         context: BuildContext,
         remap: Mapping[str, str] | None = None,
     ) -> None:
         super().__init__(name, context=context, remap=remap)
-        self.kinds = tuple(kinds if kinds is not None else ("no_path", "start_blocked"))
+        self.kinds = tuple(kinds)
         unknown = sorted(set(self.kinds) - set(NAV_FAILURES))
         if unknown:
             raise ValueError(
