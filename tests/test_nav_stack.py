@@ -98,10 +98,16 @@ def test_a_ray_that_passes_over_a_low_obstacle_does_not_clear_it() -> None:
     assert costmap.state_at((2.5, 0.0)) == "free"  # the floor seen beyond it
 
 
-def test_the_distance_field_is_the_exact_transform_of_the_lethal_cells() -> None:
+def test_the_distance_field_is_the_exact_transform_of_the_obstacles() -> None:
+    """Lethal cells, and the never-observed cells next to them (what the camera did not see of a post)."""
     costmap, _ = costmap_at(Pose2D(0.0, 0.0, 0.3), posts=((1, 2.0, 0.5, 0.2, 0.6), (2, -1.0, 2.0, 0.3, 0.6)))
-    exact = ndimage.distance_transform_edt(~costmap.lethal(), sampling=costmap.resolution_m)
+    res, ext = costmap.resolution_m, costmap.config.unseen_extension_m
+    lethal = costmap.lethal()
+    near = ndimage.distance_transform_edt(~lethal, sampling=res) <= ext
+    obstacles = lethal | (near & ~costmap.observed)
+    exact = ndimage.distance_transform_edt(~obstacles, sampling=res)
     exact = np.minimum(exact, costmap.config.inflation_radius_m)
+    assert (obstacles & ~lethal).any()  # the posts' far sides
     np.testing.assert_allclose(costmap.distance_m, exact, atol=1e-5)
 
 

@@ -15,7 +15,8 @@ What Nav2's ``costmap_2d`` does with an obstacle layer and an inflation layer, f
   footprint are cleared every frame (the robot stands there), as Nav2's ``footprint_clearing_enabled``.
 - **Inflation**: the distance from every cell to the nearest lethal cell (``scipy.ndimage``'s exact
   Euclidean distance transform), capped at ``inflation_radius_m``, is kept up to date in the window a
-  frame changed (plus the cap). Costs follow Nav2's inflation layer: 254 on a lethal cell, 253 within the
+  frame changed (plus the cap). Never-observed cells within ``unseen_extension_m`` of a lethal cell count
+  as obstacles there: what the camera saw of an object is only its near side. Costs follow Nav2's inflation layer: 254 on a lethal cell, 253 within the
   *inscribed* radius of the (padded) footprint, where the base centre collides in every heading, then
   ``252 exp(-cost_scaling_factor (d - inscribed))`` out to the inflation radius, beyond the
   *circumscribed* radius (from which on no heading collides); 255 is unknown. The controller checks the
@@ -93,6 +94,10 @@ class CostmapConfig:
     """Distances (and costs) are kept out to this far from lethal cells."""
     cost_scaling_factor: float = 3.0
     """Nav2's exponential decay rate of the inflation cost beyond the inscribed radius (1/m)."""
+    unseen_extension_m: float = 0.3
+    """Never-observed cells this close to a lethal cell count as obstacles in the distance field (an object
+    seen from one side goes on behind what the camera saw: without this the rear corners of the body, which
+    the camera never sees, swept into the unseen far side of an armchair; 0 disables)."""
 
     def __post_init__(self) -> None:
         for name in ("resolution_m", "max_extent_m", "max_range_m", "inflation_radius_m"):
@@ -391,6 +396,7 @@ class Costmap:
         window = (slice(int(r0), int(r1)), slice(int(c0), int(c1)))
         lo = self.log_odds[window]
         before = lo > cfg.lethal_log_odds
+        seen_before = self.observed[window].copy()
         clear_only = (clear & ~hit).reshape(shape)
         hit = hit.reshape(shape)
         lo[clear_only] = np.maximum(lo[clear_only] - cfg.miss_log_odds, cfg.min_log_odds)
@@ -400,6 +406,10 @@ class Costmap:
         self.observed[window] |= clear_only | hit | under
         after = lo > cfg.lethal_log_odds
         changed = before != after
+        if cfg.unseen_extension_m > 0.0:
+            # A newly observed cell that was an unseen extension of an obstacle no longer is one.
+            newly_seen = self.observed[window] & ~seen_before
+            changed |= newly_seen & (self.distance_m[window] <= cfg.unseen_extension_m + cfg.resolution_m)
         stats.marked_cells = int(np.count_nonzero(hit))
         stats.cleared_cells = int(np.count_nonzero(clear_only))
         stats.lethal_changed = int(np.count_nonzero(changed))
@@ -429,16 +439,24 @@ class Costmap:
     def _update_distances(self, r0: int, c0: int, r1: int, c1: int) -> None:
         """Recompute the capped distance field over the changed window ``[r0, r1) x [c0, c1)``, grown by the
         cap, from the lethal cells within twice the cap (exact there: farther cells cannot be nearer)."""
-        reach = int(math.ceil(self.config.inflation_radius_m / self.config.resolution_m)) + 1
+        # Reach: the cap, plus the unseen extension (an extended cell lies that far from its lethal cell).
+        span_m = self.config.inflation_radius_m + max(self.config.unseen_extension_m, 0.0)
+        reach = int(math.ceil(span_m / self.config.resolution_m)) + 1
         rows, cols = self.shape
         out_r0, out_c0 = max(r0 - reach, 0), max(c0 - reach, 0)
         out_r1, out_c1 = min(r1 + reach, rows), min(c1 + reach, cols)
         in_r0, in_c0 = max(out_r0 - reach, 0), max(out_c0 - reach, 0)
         in_r1, in_c1 = min(out_r1 + reach, rows), min(out_c1 + reach, cols)
-        lethal = self.log_odds[in_r0:in_r1, in_c0:in_c1] > self.config.lethal_log_odds
-        cap = np.float32(self.config.inflation_radius_m)
+        cfg = self.config
+        lethal = self.log_odds[in_r0:in_r1, in_c0:in_c1] > cfg.lethal_log_odds
+        cap = np.float32(cfg.inflation_radius_m)
         if lethal.any():
-            dist = ndimage.distance_transform_edt(~lethal, sampling=self.config.resolution_m)
+            dist = ndimage.distance_transform_edt(~lethal, sampling=cfg.resolution_m)
+            if cfg.unseen_extension_m > 0.0:
+                unseen = ~self.observed[in_r0:in_r1, in_c0:in_c1]
+                extended = lethal | (unseen & (dist <= cfg.unseen_extension_m))
+                if extended.sum() > lethal.sum():
+                    dist = ndimage.distance_transform_edt(~extended, sampling=cfg.resolution_m)
             dist = np.minimum(dist, cap).astype(np.float32)
         else:
             dist = np.full(lethal.shape, cap, dtype=np.float32)
