@@ -28,10 +28,12 @@ from semexp_bt.nav.pure_pursuit import RegulatedPurePursuit
 FOOTPRINT = go1_footprint()
 
 
-def costmap_at(pose: Pose2D, *, posts=(), turns: int = 8) -> tuple[Costmap, NullRobot]:  # type: ignore[no-untyped-def]
+def costmap_at(
+    pose: Pose2D, *, posts=(), turns: int = 8, config: CostmapConfig | None = None
+) -> tuple[Costmap, NullRobot]:  # type: ignore[no-untyped-def]
     """A costmap built from a full turn in place at ``pose`` among ``posts`` ((id, x, y, r, h), ...)."""
     robot = NullRobot(start_pose=pose, posts=tuple(posts))
-    costmap = Costmap(CostmapConfig(), footprint=FOOTPRINT, origin_xy=(pose.x_m, pose.y_m))
+    costmap = Costmap(config or CostmapConfig(), footprint=FOOTPRINT, origin_xy=(pose.x_m, pose.y_m))
     for k in range(turns):
         robot._pose = Pose2D(pose.x_m, pose.y_m, pose.yaw_rad + k * math.tau / turns)  # noqa: SLF001
         costmap.integrate(robot.observe_depth(pixel_grids=[costmap.sampled_pixels]))
@@ -100,7 +102,8 @@ def test_a_ray_that_passes_over_a_low_obstacle_does_not_clear_it() -> None:
 
 def test_the_distance_field_is_the_exact_transform_of_the_obstacles() -> None:
     """Lethal cells, and the never-observed cells next to them (what the camera did not see of a post)."""
-    costmap, _ = costmap_at(Pose2D(0.0, 0.0, 0.3), posts=((1, 2.0, 0.5, 0.2, 0.6), (2, -1.0, 2.0, 0.3, 0.6)))
+    posts = ((1, 2.0, 0.5, 0.2, 0.6), (2, -1.0, 2.0, 0.3, 0.6))
+    costmap, _ = costmap_at(Pose2D(0.0, 0.0, 0.3), posts=posts, config=CostmapConfig(unseen_extension_m=0.3))
     res, ext = costmap.resolution_m, costmap.config.unseen_extension_m
     lethal = costmap.lethal()
     near = ndimage.distance_transform_edt(~lethal, sampling=res) <= ext
