@@ -1,7 +1,12 @@
 """AllInstructionsFound: did the mission confirm an object for every instruction?
 
-Semantics: SUCCESS when ``instructions_left`` is empty and ``found_objects`` holds one confirmed
-object per instruction searched so far (the current one included); FAILURE otherwise. Ends a
+Semantics (a condition: it never returns RUNNING and holds no state, so halting it changes nothing):
+
+- SUCCESS: ``instructions_left`` is empty and ``found_objects`` holds a confirmed object for the current
+  ``instruction`` (ConfirmTarget records each object under the instruction it answered).
+- FAILURE: otherwise.
+
+Reads ``instructions_left``, ``found_objects`` and ``instruction``; writes nothing. It ends a
 multi-object mission's loop with the right outcome.
 
 Example:

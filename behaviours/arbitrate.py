@@ -1,11 +1,14 @@
 """Arbitrate: confidence-calibrated evidence arbitration (paper Eq. 1-4) on the last perception.
 
-Semantics: reads ``scene_evidence``, ``detections`` and ``observation``, calls
-``semexp_bt.core.evidence.arbitrate`` and writes ``arbitration`` (every candidate with its score) and
-``target`` (the winner t* with its fused confidence C_f, or None). Always SUCCESS: an empty or
-all-zero candidate set is a valid outcome (``target`` is None and the reason is in the feedback).
-A label counts as instruction-aligned when its relevance to the instruction reaches
-``align_threshold``.
+Semantics (stateless; it never returns RUNNING, so halting it changes nothing):
+
+- SUCCESS: always, after calling ``semexp_bt.core.evidence.arbitrate`` on the last perception. An empty
+  or all-zero candidate set is a valid outcome: ``target`` is None and the reason is in the feedback.
+
+Reads ``scene_evidence``, ``detections``, ``observation`` (its depth places the candidates) and
+``instruction``; writes ``arbitration`` (every candidate with its score) and ``target`` (the winner t*
+with its fused confidence C_f, or None). A label counts as instruction-aligned when its relevance to the
+instruction reaches ``align_threshold``.
 
 Example:
     - type: Arbitrate
@@ -15,38 +18,20 @@ Example:
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-
 import py_trees
 
 from behaviours.base import SemExpBehaviour
-from behaviours.spec import BuildContext, ParamSpec
+from behaviours.spec import param
 from semexp_bt.core.evidence import arbitrate
 
 
 class Arbitrate(SemExpBehaviour):
     READS = ("scene_evidence", "detections", "observation", "instruction")
     WRITES = ("arbitration", "target")
-    PARAMS = {
-        "align_threshold": ParamSpec(
-            "float",
-            doc="relevance at which a label counts as the instructed object",
-            default=0.6,
-            ge=0.0,
-            le=1.0,
-        ),
-    }
 
-    def __init__(
-        self,
-        name: str,
-        *,
-        align_threshold: float = 0.6,
-        context: BuildContext,
-        remap: Mapping[str, str] | None = None,
-    ) -> None:
-        super().__init__(name, context=context, remap=remap)
-        self.align_threshold = align_threshold
+    align_threshold: float = param(
+        "float", doc="relevance at which a label counts as the instructed object", default=0.6, ge=0.0, le=1.0
+    )
 
     def is_aligned(self, label: str) -> bool:
         return self.names_instructed_object(label, threshold=self.align_threshold)

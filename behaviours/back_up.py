@@ -1,13 +1,19 @@
 """BackUp: step away from what the robot is stuck against, onto known free cells (Nav2's BackUp recovery).
 
-Semantics: on start it picks, among body-frame directions (back, back-left, back-right, left, right:
-never ahead, where the controller already failed; a legged robot side-steps), the one along which a
-straight step of ``distance_m`` keeps the oriented footprint on *observed* cells of the costmap (the
-camera does not look back; the footprint's own trail is known free) and clear of lethal cells by the
-controller's least clearance, preferring the largest clearance at the end. It is RUNNING while it steps
-that way at ``speed_mps``, SUCCESS once the base has moved ``distance_m`` (or after ``timeout_s``, so a
-recovery never hangs), and FAILURE when no direction is admissible. With no costmap it steps straight
-back. Commands zero when it ends or is preempted.
+Semantics:
+
+- On start it picks, among five body-frame directions (back, back-left, back-right, left, right; never
+  ahead, where the controller already failed; a legged robot side-steps), the one along which a straight
+  step of ``distance_m`` keeps the oriented footprint on *observed* cells of the costmap (the camera does
+  not look back; the footprint's own trail is known free) and clear of lethal cells by the controller's
+  least clearance, preferring the largest clearance at the end. With no costmap it picks straight back.
+- RUNNING: while stepping that way at ``speed_mps`` and the base has moved less than ``distance_m``.
+- SUCCESS: once the base has moved ``distance_m``, or after ``timeout_s`` however far it got, so a
+  recovery never hangs; it commands a zero twist first.
+- FAILURE: no direction is admissible (a zero twist is commanded).
+- Halted while RUNNING: it commands a zero twist.
+
+Reads ``local_map``; writes ``cmd_twist`` and ``cmd_stamp_s``.
 
 Example:
     - type: BackUp
@@ -18,21 +24,22 @@ Example:
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 import py_trees
 
 from behaviours.base import SemExpBehaviour
-from behaviours.spec import BuildContext, ParamSpec
+from behaviours.spec import param
 from semexp_bt.core.types import Pose2D, Twist
 from semexp_bt.nav.controller import SafetyRules, discs_known, footprint_clearance
+from semexp_bt.nav.costmap import Costmap
 
 #: Candidate escape headings in the body frame (radians from forward), straight back first.
 ESCAPE_HEADINGS_RAD = tuple(math.radians(a) for a in (180, 135, -135, 90, -90))
 
 
-def escape_heading(costmap, pose: Pose2D, distance_m: float) -> float | None:  # type: ignore[no-untyped-def]
+def escape_heading(costmap: Costmap, pose: Pose2D, distance_m: float) -> float | None:
     """The body-frame heading of the best admissible straight step of ``distance_m`` (None: none is)."""
     rules = SafetyRules()
     steps = np.linspace(0.05, distance_m, max(2, int(math.ceil(distance_m / 0.05))))
@@ -57,26 +64,13 @@ def escape_heading(costmap, pose: Pose2D, distance_m: float) -> float | None:  #
 class BackUp(SemExpBehaviour):
     READS = ("local_map",)
     WRITES = ("cmd_twist", "cmd_stamp_s")
-    PARAMS = {
-        "distance_m": ParamSpec("float", doc="distance to step away, m", default=0.3, gt=0.0, le=2.0),
-        "speed_mps": ParamSpec("float", doc="stepping speed, m/s", default=0.2, gt=0.0, le=0.3),
-        "timeout_s": ParamSpec("float", doc="SUCCESS anyway after this long, s", default=4.0, gt=0.0),
-    }
 
-    def __init__(
-        self,
-        name: str,
-        *,
-        distance_m: float = 0.3,
-        speed_mps: float = 0.2,
-        timeout_s: float = 4.0,
-        context: BuildContext,
-        remap: Mapping[str, str] | None = None,
-    ) -> None:
-        super().__init__(name, context=context, remap=remap)
-        self.distance_m = distance_m
-        self.speed_mps = abs(speed_mps)
-        self.timeout_s = timeout_s
+    distance_m: float = param("float", doc="distance to step away, m", default=0.3, gt=0.0, le=2.0)
+    speed_mps: float = param("float", doc="stepping speed, m/s", default=0.2, gt=0.0, le=0.3)
+    timeout_s: float = param("float", doc="SUCCESS anyway after this long, s", default=4.0, gt=0.0)
+
+    def __init__(self, name: str, **kwargs: Any) -> None:
+        super().__init__(name, **kwargs)
         self._start = (0.0, 0.0, 0.0)
         self._heading: float | None = math.pi
 

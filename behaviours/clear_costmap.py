@@ -1,12 +1,17 @@
 """ClearCostmapAroundRobot: forget what the costmap holds around the robot (Nav2's recovery of that name).
 
-Semantics: resets to unknown every cell between ``keep_radius_m`` and ``radius_m`` of the robot, so that
-the frames that follow rebuild that ring from what the camera sees now (a phantom obstacle left by a
-bad frame or by odometry drift goes; a real one is marked again as soon as it is in view). SUCCESS;
-FAILURE when there is no costmap. Unlike Nav2's, it keeps the cells right around the robot
-(``keep_radius_m``, past the footprint's circumscribed radius): the camera does not see them again
-before the robot moves, and the spin and the back-up that follow must not sweep a corner of the body
-into an obstacle the map has just been told to forget.
+Semantics (it never returns RUNNING):
+
+- SUCCESS: after resetting to unknown every cell between ``keep_radius_m`` and ``radius_m`` of the
+  robot, so that the frames that follow rebuild that ring from what the camera sees now (a phantom
+  obstacle left by a bad frame or by odometry drift goes; a real one is marked again as soon as it is in
+  view); a ``costmap_cleared`` event counts the cells.
+- FAILURE: there is no costmap on the board.
+
+Reads ``local_map`` and changes it in place (declared as a write of ``local_map``). Unlike Nav2's, it keeps
+the cells right around the robot (``keep_radius_m``, past the footprint's circumscribed radius): the
+camera does not see them again before the robot moves, and the spin and the back-up that follow must not
+sweep a corner of the body into an obstacle the map has just been told to forget.
 
 Example:
     - type: ClearCostmapAroundRobot
@@ -16,36 +21,20 @@ Example:
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-
 import py_trees
 
 from behaviours.base import SemExpBehaviour
-from behaviours.spec import BuildContext, ParamSpec
+from behaviours.spec import param
 
 
 class ClearCostmapAroundRobot(SemExpBehaviour):
     READS = ("local_map",)
     WRITES = ("local_map",)
-    PARAMS = {
-        "radius_m": ParamSpec(
-            "float", doc="forget cells within this distance of the robot, m", default=3.0, gt=0.0
-        ),
-        "keep_radius_m": ParamSpec("float", doc="except those within this distance, m", default=0.8, ge=0.0),
-    }
 
-    def __init__(
-        self,
-        name: str,
-        *,
-        radius_m: float = 3.0,
-        keep_radius_m: float = 0.8,
-        context: BuildContext,
-        remap: Mapping[str, str] | None = None,
-    ) -> None:
-        super().__init__(name, context=context, remap=remap)
-        self.radius_m = radius_m
-        self.keep_radius_m = keep_radius_m
+    radius_m: float = param(
+        "float", doc="forget cells within this distance of the robot, m", default=3.0, gt=0.0
+    )
+    keep_radius_m: float = param("float", doc="except those within this distance, m", default=0.8, ge=0.0)
 
     def update(self) -> py_trees.common.Status:
         costmap = self.read("local_map")

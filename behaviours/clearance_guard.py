@@ -1,8 +1,14 @@
 """ClearanceGuard: watch collisions and clearance breaches (the events OASR counts).
 
-Semantics: RUNNING; every tick it copies the backend's safety state to ``safety`` and logs each new
-collision or clearance event once. With ``fail_on_collision: true`` it returns FAILURE (after a
-safe stop) on the first collision, for missions where touching anything is unacceptable.
+Semantics:
+
+- RUNNING: every tick, after logging each new collision or clearance event of the backend's safety state
+  once (``services.events``) and, when there are new events, writing that state to ``safety``.
+- FAILURE: only with ``fail_on_collision: true``, on the tick a collision is first seen, after a safe
+  stop (``robot.stop()``), for missions where touching anything is unacceptable.
+- Halted: nothing to undo; events already logged are not logged again.
+
+Reads nothing from the board; writes ``safety``.
 
 Example:
     - type: ClearanceGuard
@@ -12,32 +18,23 @@ Example:
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from typing import Any
 
 import py_trees
 
 from behaviours.base import SemExpBehaviour
-from behaviours.spec import BuildContext, ParamSpec
+from behaviours.spec import param
 
 
 class ClearanceGuard(SemExpBehaviour):
     WRITES = ("safety",)
-    PARAMS = {
-        "fail_on_collision": ParamSpec(
-            "bool", doc="FAILURE (after a safe stop) on the first collision", default=False
-        ),
-    }
 
-    def __init__(
-        self,
-        name: str,
-        *,
-        fail_on_collision: bool = False,
-        context: BuildContext,
-        remap: Mapping[str, str] | None = None,
-    ) -> None:
-        super().__init__(name, context=context, remap=remap)
-        self.fail_on_collision = fail_on_collision
+    fail_on_collision: bool = param(
+        "bool", doc="FAILURE (after a safe stop) on the first collision", default=False
+    )
+
+    def __init__(self, name: str, **kwargs: Any) -> None:
+        super().__init__(name, **kwargs)
         self._seen = 0
 
     def update(self) -> py_trees.common.Status:

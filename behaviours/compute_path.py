@@ -1,12 +1,19 @@
 """ComputePathToSubgoal: keep a global plan from the robot to the subgoal on the costmap (Nav2's ComputePathToPose).
 
-Semantics: plans (``semexp_bt.nav.global_planner.GlobalPlanner``) on its first tick and again when the
-subgoal changes, when the costmap changed (its revision moved: an obstacle appeared or vanished) and
-``replan_period_s`` has passed since the last plan, or when the plan is ``max_plan_age_s`` old. It writes
-the plan to ``global_plan`` and stays RUNNING (it serves FollowPath, which runs beside it). FAILURE, with
-``nav_failure`` set to ``no_path`` (no passable cell near the subgoal is connected to the robot: the
-subgoal is walled in or inside obstacles) or ``start_blocked``, at once: an unreachable subgoal is
-handed back to the decision layer, never chased. FAILURE also when there is no subgoal or no costmap.
+Semantics:
+
+- RUNNING: while a plan reaches the subgoal. It plans (``semexp_bt.nav.global_planner.GlobalPlanner``)
+  on its first tick and again when the subgoal changes, when the costmap changed (its revision moved: an
+  obstacle appeared or vanished) and ``replan_period_s`` has passed since the last plan, or when the plan
+  is ``max_plan_age_s`` old; each plan is written to ``global_plan``. It stays RUNNING because it serves
+  FollowPath, which runs beside it.
+- FAILURE, at once, with ``nav_failure`` set to ``no_path`` (no passable cell near the subgoal is
+  connected to the robot: the subgoal is walled in or inside obstacles) or ``start_blocked``, and an
+  event of that kind: an unreachable subgoal is handed back to the decision layer, never chased.
+- FAILURE when there is no ``subgoal`` or no costmap (``local_map``).
+- On start it clears ``nav_failure``; halting it changes nothing else.
+
+Reads ``subgoal`` and ``local_map``; writes ``global_plan`` and ``nav_failure``.
 
 Example:
     - type: RateLimiter
@@ -20,46 +27,34 @@ Example:
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from typing import Any
 
 import py_trees
 
 from behaviours.base import SemExpBehaviour
-from behaviours.spec import BuildContext, ParamSpec
+from behaviours.spec import param
 from semexp_bt.nav.global_planner import GlobalPlan, GlobalPlanner, GlobalPlannerConfig
 
 
 class ComputePathToSubgoal(SemExpBehaviour):
     READS = ("subgoal", "local_map")
     WRITES = ("global_plan", "nav_failure")
-    PARAMS = {
-        "replan_period_s": ParamSpec(
-            "float", doc="replan at most this often when the costmap changed, s", default=1.0, gt=0.0
-        ),
-        "max_plan_age_s": ParamSpec("float", doc="replan anyway after this long, s", default=4.0, gt=0.0),
-        "goal_tolerance_m": ParamSpec(
-            "float",
-            doc="passable cells this close to the subgoal are goals, m (0.8: with FollowPath's 0.15 m at the "
-            "path's end, the robot stops within r_s = 1 m of a subgoal on an object)",
-            default=0.8,
-            gt=0.0,
-        ),
-    }
 
-    def __init__(
-        self,
-        name: str,
-        *,
-        replan_period_s: float = 1.0,
-        max_plan_age_s: float = 4.0,
-        goal_tolerance_m: float = 0.8,
-        context: BuildContext,
-        remap: Mapping[str, str] | None = None,
-    ) -> None:
-        super().__init__(name, context=context, remap=remap)
-        self.replan_period_s = replan_period_s
-        self.max_plan_age_s = max_plan_age_s
-        self.planner = GlobalPlanner(GlobalPlannerConfig(goal_tolerance_m=goal_tolerance_m))
+    replan_period_s: float = param(
+        "float", doc="replan at most this often when the costmap changed, s", default=1.0, gt=0.0
+    )
+    max_plan_age_s: float = param("float", doc="replan anyway after this long, s", default=4.0, gt=0.0)
+    goal_tolerance_m: float = param(
+        "float",
+        doc="passable cells this close to the subgoal are goals, m (0.8: with FollowPath's 0.15 m at the "
+        "path's end, the robot stops within r_s = 1 m of a subgoal on an object)",
+        default=0.8,
+        gt=0.0,
+    )
+
+    def __init__(self, name: str, **kwargs: Any) -> None:
+        super().__init__(name, **kwargs)
+        self.planner = GlobalPlanner(GlobalPlannerConfig(goal_tolerance_m=self.goal_tolerance_m))
         self._plan: GlobalPlan | None = None
         self._for: tuple[float, float] | None = None
 

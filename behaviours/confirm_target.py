@@ -1,6 +1,24 @@
 """ConfirmTarget: declare the goal found only on consistent, calibrated evidence from close by.
 
-Semantics: a view *votes* for the target when one of its arbitration candidates is an object whose
+Semantics:
+
+- It first reads the step's own ``arbitration`` (with ``scene_evidence`` and ``observation``). If that
+  view does not vote for a target (below), FAILURE at once.
+- RUNNING: while it takes further views from the same viewpoint (``robot.observe()`` and a perception
+  request each; RUNNING while the models think), at most ``max_extra_views``.
+- SUCCESS: as soon as ``extra_views`` further views vote for a point within ``consistency_radius_m`` of
+  the first, the mean of the voting points lies within ``confirm_radius_m`` of the robot, and the names
+  heard at that spot agree (below); it then appends the object to ``found_objects``.
+- FAILURE: when too few views are left to reach ``extra_views``, or the votes' mean lies beyond
+  ``confirm_radius_m``, or the names disagree. After every failure, an aligned memory node next to the
+  robot and inside the camera's view has its exploration potential scaled by ``reject_potential_factor``.
+- Halted: the pending perception request is cancelled; the next start begins a new confirmation (the
+  names heard are kept over the mission).
+
+Reads ``arbitration``, ``scene_evidence``, ``observation``, ``instruction``, ``target_label``,
+``found_objects`` and ``memory``; writes ``found_objects`` and ``memory`` (node potentials).
+
+Voting: a view *votes* for the target when one of its arbitration candidates is an object whose
 label names the instructed object (relevance >= ``align_threshold``), whose raw posterior score S(t)
 of Eq. 2 reaches ``min_score``, and whose back-projected position lies within ``confirm_radius_m`` +
 ``vote_slack_m`` of the robot. Success also needs the mean of the voting positions to lie within
@@ -10,16 +28,11 @@ four views says reliably whether the target is within r_s. The candidate need no
 t*: an unexplored direction may outscore the object in Eq. 2 (it is where to look next), yet the object
 is still seen here.
 
-The behaviour reads the step's ``arbitration``; if it votes, it asks for up to ``max_extra_views`` more
-perceptions from the same stable viewpoint (RUNNING while the models think) and returns SUCCESS,
-appending the object to ``found_objects``, as soon as ``extra_views`` of them vote for a target within
-``consistency_radius_m`` of the first. It returns FAILURE when the first view does not vote or when too
-few views are left to reach ``extra_views``. A k-of-n vote rather than k views in a row: each emulated
-(or real) view misses a present object now and then, while a distractor fools most views only rarely
-(docs/executive.md, "Confirmation", has the arithmetic). After a failure, an aligned memory node next
-to the robot and inside the camera's view has its exploration potential scaled by
-``reject_potential_factor``, so the decision does not send the robot straight back (a distractor that
-fooled the detector once is not trusted twice), while a real target missed once can still be revisited.
+A k-of-n vote rather than k views in a row: each emulated (or real) view misses a present object now and
+then, while a distractor fools most views only rarely (docs/executive.md, "Confirmation", has the
+arithmetic). Lowering the potential of a rejected node keeps the decision from sending the robot straight
+back (a distractor that fooled the detector once is not trusted twice), while a real target missed once
+can still be revisited.
 
 Label agreement: every view the behaviour inspects (first and further, over the whole mission) also
 records what the VLM and the detector *called* the objects in front of the robot: a name-the-target
@@ -38,19 +51,20 @@ Example:
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 import py_trees
 
 from behaviours.base import INSTRUCTED_OBJECT_RELEVANCE, SemExpBehaviour
-from behaviours.spec import BuildContext, ParamSpec
-from semexp_bt.core.evidence import arbitrate, candidate_box
+from behaviours.spec import param
+from semexp_bt.core.evidence import ArbitrationResult, arbitrate, candidate_box
 from semexp_bt.core.geometry import back_project, object_surface_depth
+from semexp_bt.core.types import Observation, SceneEvidence
 from semexp_bt.perception.interface import PerceptionJob
 
 
-def _in_view(point_m: tuple[float, float, float], observation) -> bool:
+def _in_view(point_m: tuple[float, float, float], observation: Observation) -> bool:
     """Whether a world point projects inside the observation's image, in front of the camera."""
     world_to_camera = np.linalg.inv(np.asarray(observation.camera_to_world, dtype=float))
     x, y, z = world_to_camera[:3, :3] @ np.asarray(point_m, dtype=float) + world_to_camera[:3, 3]
@@ -72,115 +86,87 @@ class ConfirmTarget(SemExpBehaviour):
         "memory",
     )
     WRITES = ("found_objects", "memory")
-    PARAMS = {
-        "confirm_radius_m": ParamSpec(
-            "float",
-            doc="the target must lie this close to the robot, m (the success radius r_s: a declared "
-            "success is a real one)",
-            default=1.0,
-            gt=0.0,
-        ),
-        "vote_slack_m": ParamSpec(
-            "float",
-            doc="a single view may place the target this much beyond confirm_radius_m and still vote, m "
-            "(the mean of the votes must lie within confirm_radius_m)",
-            default=0.3,
-            ge=0.0,
-        ),
-        "min_score": ParamSpec(
-            "float",
-            doc="least raw posterior score S(t*) of a confirming view (C_f is 1 for a lone candidate, "
-            "so an absolute level is needed too)",
-            default=0.05,
-            ge=0.0,
-            le=1.0,
-        ),
-        "extra_views": ParamSpec(
-            "int", doc="further views that must vote for the target before success", default=3, ge=0, le=10
-        ),
-        "max_extra_views": ParamSpec(
-            "int",
-            doc="most further views taken to collect ``extra_views`` votes (at least ``extra_views``)",
-            default=4,
-            ge=0,
-            le=20,
-        ),
-        "consistency_radius_m": ParamSpec(
-            "float", doc="agreeing views place the target within this distance, m", default=0.8, gt=0.0
-        ),
-        "align_threshold": ParamSpec(
-            "float",
-            doc="relevance at which a label counts as the instructed object (0.9: the instructed label or a synonym; "
-            "a partial match such as 'shelf' for 'bucket shelf' is a distractor, never a success)",
-            default=INSTRUCTED_OBJECT_RELEVANCE,
-            ge=0.0,
-            le=1.0,
-        ),
-        "reject_potential_factor": ParamSpec(
-            "float",
-            doc="potential scale of an aligned node that failed (0.5: a second failed visit puts it "
-            "under the decision's tau_p)",
-            default=0.5,
-            ge=0.0,
-            le=1.0,
-        ),
-        "min_label_agreement": ParamSpec(
-            "float",
-            doc="least share of the object names recorded at the target's spot, over the mission, that "
-            "name the instructed object (0: no label-agreement check)",
-            default=0.7,
-            ge=0.0,
-            le=1.0,
-        ),
-        "label_agreement_radius_m": ParamSpec(
-            "float",
-            doc="names recorded this close to the target's point count toward the agreement, m",
-            default=0.5,
-            gt=0.0,
-        ),
-        "reject_radius_m": ParamSpec(
-            "float",
-            doc="only aligned nodes this close to the robot and inside the camera's view are "
-            "lowered on a failed confirmation, m",
-            default=1.2,
-            gt=0.0,
-        ),
-    }
 
-    def __init__(
-        self,
-        name: str,
-        *,
-        confirm_radius_m: float = 1.0,
-        vote_slack_m: float = 0.3,
-        min_score: float = 0.05,
-        extra_views: int = 3,
-        max_extra_views: int = 4,
-        consistency_radius_m: float = 0.8,
-        align_threshold: float = INSTRUCTED_OBJECT_RELEVANCE,
-        reject_potential_factor: float = 0.5,
-        reject_radius_m: float = 1.2,
-        min_label_agreement: float = 0.7,
-        label_agreement_radius_m: float = 0.5,
-        context: BuildContext,
-        remap: Mapping[str, str] | None = None,
-    ) -> None:
-        super().__init__(name, context=context, remap=remap)
-        self.confirm_radius_m = confirm_radius_m
-        self.vote_slack_m = vote_slack_m
-        if max_extra_views < extra_views:
+    confirm_radius_m: float = param(
+        "float",
+        doc="the target must lie this close to the robot, m (the success radius r_s: a declared "
+        "success is a real one)",
+        default=1.0,
+        gt=0.0,
+    )
+    vote_slack_m: float = param(
+        "float",
+        doc="a single view may place the target this much beyond confirm_radius_m and still vote, m "
+        "(the mean of the votes must lie within confirm_radius_m)",
+        default=0.3,
+        ge=0.0,
+    )
+    min_score: float = param(
+        "float",
+        doc="least raw posterior score S(t*) of a confirming view (C_f is 1 for a lone candidate, "
+        "so an absolute level is needed too)",
+        default=0.05,
+        ge=0.0,
+        le=1.0,
+    )
+    extra_views: int = param(
+        "int", doc="further views that must vote for the target before success", default=3, ge=0, le=10
+    )
+    max_extra_views: int = param(
+        "int",
+        doc="most further views taken to collect ``extra_views`` votes (at least ``extra_views``)",
+        default=4,
+        ge=0,
+        le=20,
+    )
+    consistency_radius_m: float = param(
+        "float", doc="agreeing views place the target within this distance, m", default=0.8, gt=0.0
+    )
+    align_threshold: float = param(
+        "float",
+        doc="relevance at which a label counts as the instructed object (0.9: the instructed label or a synonym; "
+        "a partial match such as 'shelf' for 'bucket shelf' is a distractor, never a success)",
+        default=INSTRUCTED_OBJECT_RELEVANCE,
+        ge=0.0,
+        le=1.0,
+    )
+    reject_potential_factor: float = param(
+        "float",
+        doc="potential scale of an aligned node that failed (0.5: a second failed visit puts it "
+        "under the decision's tau_p)",
+        default=0.5,
+        ge=0.0,
+        le=1.0,
+    )
+    min_label_agreement: float = param(
+        "float",
+        doc="least share of the object names recorded at the target's spot, over the mission, that "
+        "name the instructed object (0: no label-agreement check)",
+        default=0.7,
+        ge=0.0,
+        le=1.0,
+    )
+    label_agreement_radius_m: float = param(
+        "float",
+        doc="names recorded this close to the target's point count toward the agreement, m",
+        default=0.5,
+        gt=0.0,
+    )
+    reject_radius_m: float = param(
+        "float",
+        doc="only aligned nodes this close to the robot and inside the camera's view are "
+        "lowered on a failed confirmation, m",
+        default=1.2,
+        gt=0.0,
+    )
+
+    def __init__(self, name: str, **kwargs: Any) -> None:
+        super().__init__(name, **kwargs)
+        if self.max_extra_views < self.extra_views:
             raise ValueError(
-                f"{name}: max_extra_views ({max_extra_views}) must be at least extra_views ({extra_views})"
+                f"{name}: max_extra_views ({self.max_extra_views}) must be at least extra_views "
+                f"({self.extra_views})"
             )
-        self.min_score = min_score
-        self.extra_views = extra_views
-        self.max_extra_views = max_extra_views
-        self.consistency_radius_m = consistency_radius_m
-        self.align_threshold = align_threshold
-        self.reject_potential_factor = reject_potential_factor
-        self.reject_radius_m = reject_radius_m
-        self.min_label_agreement = min_label_agreement
-        self.label_agreement_radius_m = label_agreement_radius_m
         #: (x, y, names the target) for every object name heard near the robot, over the mission.
         self._names: list[tuple[float, float, bool]] = []
         #: The label the first view voted for (None until it has), and every voting position, first first.
@@ -203,7 +189,12 @@ class ConfirmTarget(SemExpBehaviour):
     def _aligned(self, label: str) -> bool:
         return self.names_instructed_object(label, threshold=self.align_threshold)
 
-    def _vote(self, arbitration, scene, observation) -> tuple[str, np.ndarray] | None:  # type: ignore[no-untyped-def]
+    def _vote(
+        self,
+        arbitration: ArbitrationResult | None,
+        scene: SceneEvidence | None,
+        observation: Observation | None,
+    ) -> tuple[str, np.ndarray] | None:
         """The label and world position of the best candidate in this view that votes for the target
         (see the module docstring), or None."""
         if arbitration is None or observation is None:
@@ -211,7 +202,9 @@ class ConfirmTarget(SemExpBehaviour):
         pose = self.services.robot.base_pose()
         patch = self.services.config.arbitration.depth_patch_px
 
-        def nearby_point(pixel, box) -> np.ndarray | None:  # type: ignore[no-untyped-def]
+        def nearby_point(
+            pixel: tuple[float, float], box: tuple[float, float, float, float] | None
+        ) -> np.ndarray | None:
             depth = object_surface_depth(observation.depth_m, pixel, box, patch)
             if depth is None:
                 return None

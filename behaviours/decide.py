@@ -1,11 +1,22 @@
 """Decide: utility-driven subgoal selection on the topological memory (paper Eq. 8-10).
 
-Semantics: filters memory nodes by exploration potential (Eq. 8), scores each candidate with
-U = S^alpha C^beta P^eta exp(-gamma d) (Eq. 9) where S is the instruction relevance of the node's
-label and d the travel cost from the robot (graph shortest path or Euclidean, per config), and writes
-the greedy argmax (Eq. 10) to ``subgoal``. SUCCESS with a subgoal; FAILURE when the candidate set is
-empty or every utility is zero (the feedback says which), so a recovery branch can act. Every
-decision step, with all candidates and utilities, goes to the episode record.
+Semantics (it never returns RUNNING):
+
+- SUCCESS: a subgoal was chosen and written to ``subgoal``.
+- FAILURE: the candidate set is empty or every utility is zero (the feedback says which); ``subgoal`` is
+  then None, so a recovery branch can act.
+- Halted: nothing to undo; the relaxed choices (below) are kept over the mission.
+
+Reads ``memory`` and ``instruction``; writes ``subgoal`` and ``decision`` (the whole DecisionResult).
+Every decision step, with all candidates and utilities, also goes to the episode record
+(``services.decision_log``).
+
+It filters memory nodes by exploration potential (Eq. 8), scores each candidate with
+U = S^alpha C^beta P^eta exp(-gamma d) (Eq. 9) where S is the instruction relevance of the node's label and
+d the travel cost from the robot (graph shortest path or Euclidean, per config), and takes the greedy
+argmax (Eq. 10). A strategy (``services.strategy["decision"]``) may replace Eq. 8-10 with a baseline
+(``semexp_bt.core.decision_baselines``); the oracle baseline reads the privileged goal the runner hands it
+and raises ``RuntimeError`` without one.
 
 When Eq. 8 leaves no candidate (every node's potential has decayed under tau_p) and
 ``relax_when_exhausted`` is set, it decides once more over the nodes the robot has never reached, with
@@ -28,11 +39,12 @@ import dataclasses
 import functools
 import math
 from collections.abc import Mapping, Sequence
+from typing import Any
 
 import py_trees
 
 from behaviours.base import SemExpBehaviour
-from behaviours.spec import BuildContext, ParamSpec
+from behaviours.spec import param
 from semexp_bt.core.config import DecisionConfig
 from semexp_bt.core.decision import REASON_EMPTY, DecisionResult, decide
 from semexp_bt.core.decision_baselines import BASELINE_DECISIONS, select_subgoal
@@ -42,25 +54,16 @@ from semexp_bt.core.types import NodeState, Subgoal
 class Decide(SemExpBehaviour):
     READS = ("memory", "instruction")
     WRITES = ("subgoal", "decision")
-    PARAMS = {
-        "relax_when_exhausted": ParamSpec(
-            "bool",
-            doc="when no node passes tau_p, decide again over the never-reached nodes with tau_p = 0 "
-            "(each node at most once per mission)",
-            default=True,
-        ),
-    }
 
-    def __init__(
-        self,
-        name: str,
-        *,
-        relax_when_exhausted: bool = True,
-        context: BuildContext,
-        remap: Mapping[str, str] | None = None,
-    ) -> None:
-        super().__init__(name, context=context, remap=remap)
-        self.relax_when_exhausted = relax_when_exhausted
+    relax_when_exhausted: bool = param(
+        "bool",
+        doc="when no node passes tau_p, decide again over the never-reached nodes with tau_p = 0 "
+        "(each node at most once per mission)",
+        default=True,
+    )
+
+    def __init__(self, name: str, **kwargs: Any) -> None:
+        super().__init__(name, **kwargs)
         # Per tree, so per mission: a new mission builds a new tree.
         self._relaxed_choices: set[int] = set()
 

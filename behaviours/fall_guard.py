@@ -1,7 +1,12 @@
 """FallGuard: stop the mission safely when the robot has fallen.
 
-Semantics: RUNNING while ``robot.safety().fallen`` is false; on a fall it stops the robot, writes
-``fallen`` to ``mission_outcome`` and ``safety``, and returns FAILURE.
+Semantics (stateless, so halting it changes nothing):
+
+- RUNNING: while the backend's ``robot.safety().fallen`` is false.
+- FAILURE: on a fall, after stopping the robot (``robot.stop()``), writing ``fallen`` to
+  ``mission_outcome`` and the safety state to ``safety``, and logging a ``fallen`` event.
+
+Reads nothing from the board; writes ``mission_outcome`` and ``safety``.
 
 Example:
     - type: FallGuard

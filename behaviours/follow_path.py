@@ -1,20 +1,19 @@
 """FollowPath: follow the global plan with the controller, to the subgoal (Nav2's FollowPath).
 
-Semantics: every tick it receives (12 Hz behind a RateLimiter) it hands the latest ``global_plan``, the
-costmap and the robot's pose and velocity to the path-following controller (``services.planner``, a
-``semexp_bt.nav.controller.PathController``: DWB-style sampling or regulated pure pursuit), writes the
-controller's result to ``plan`` and its twist to ``cmd_twist``. The controller checks the oriented
-footprint at every state it considers (docs/planner.md).
+Semantics (every tick it receives, 12 Hz behind a RateLimiter, it hands the latest ``global_plan``, the
+costmap ``local_map`` and the robot's pose and velocity to the path-following controller,
+``services.planner``, a ``semexp_bt.nav.controller.PathController``: DWB-style sampling or regulated
+pure pursuit, which checks the oriented footprint at every state it considers; it writes the
+controller's result to ``plan`` and its twist to ``cmd_twist`` and ``cmd_stamp_s``):
 
-- SUCCESS on arrival: within ``arrival_radius_m`` of the subgoal or ``path_end_tolerance_m`` of the plan's
-  end (for a subgoal on an object's surface the plan ends at the nearest place to stand), after turning
-  in place to face the subgoal so that the perception that follows looks at it (a turn the footprint
-  cannot make is skipped).
-- FAILURE, with ``nav_failure`` = ``blocked``, when the controller has found no admissible motion for
-  ``blocked_timeout_s``; FAILURE when there is no subgoal.
+- SUCCESS on arrival: within ``arrival_radius_m`` of the ``subgoal`` or ``path_end_tolerance_m`` of the
+  plan's end (for a subgoal on an object's surface the plan ends at the nearest place to stand), after
+  turning in place to face the subgoal so that the perception that follows looks at it (a turn the
+  footprint cannot make is skipped).
+- FAILURE, with ``nav_failure`` = ``blocked`` and a ``blocked`` event, when the controller has found no
+  admissible motion for ``blocked_timeout_s``; FAILURE when there is no subgoal.
 - RUNNING otherwise (also while no plan has been written yet: it then commands zero).
-
-It commands a zero twist when it ends or is preempted.
+- When it ends, and when it is halted, it commands a zero twist.
 
 Example:
     - type: RateLimiter
@@ -29,18 +28,19 @@ Example:
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 import py_trees
 
 from behaviours.base import SemExpBehaviour
-from behaviours.spec import BuildContext, ParamSpec
+from behaviours.spec import param
 from semexp_bt.core.types import Pose2D, Twist
 from semexp_bt.nav.controller import MotionLimits, SafetyRules, admissible, rollout
+from semexp_bt.nav.costmap import Costmap
 
 
-def turn_is_admissible(costmap, pose: Pose2D, rate_radps: float, *, duration_s: float = 0.6) -> bool:  # type: ignore[no-untyped-def]
+def turn_is_admissible(costmap: Costmap, pose: Pose2D, rate_radps: float, *, duration_s: float = 0.6) -> bool:
     """Whether a turn in place at ``rate_radps`` for ``duration_s`` keeps the footprint's clearance."""
     states, commands = rollout(pose, Twist.zero(), np.array([[0.0, rate_radps]]), limits=MotionLimits(),
                                horizon_s=duration_s, dt_s=0.1)  # fmt: skip
@@ -51,41 +51,27 @@ def turn_is_admissible(costmap, pose: Pose2D, rate_radps: float, *, duration_s: 
 class FollowPath(SemExpBehaviour):
     READS = ("subgoal", "global_plan", "local_map")
     WRITES = ("plan", "cmd_twist", "cmd_stamp_s", "nav_failure")
-    PARAMS = {
-        "arrival_radius_m": ParamSpec(
-            "float", doc="SUCCESS within this distance of the subgoal, m", default=0.7, gt=0.0
-        ),
-        "path_end_tolerance_m": ParamSpec(
-            "float", doc="or within this distance of the plan's end, m", default=0.15, gt=0.0
-        ),
-        "blocked_timeout_s": ParamSpec(
-            "float", doc="FAILURE after no admissible motion for this long, s", default=3.0, gt=0.0
-        ),
-        "facing_tolerance_deg": ParamSpec(
-            "float",
-            doc="on arrival, turn until the subgoal is this close to straight ahead, degrees",
-            default=17.0,
-            gt=0.0,
-            le=180.0,
-        ),  # fmt: skip
-    }
 
-    def __init__(
-        self,
-        name: str,
-        *,
-        arrival_radius_m: float = 0.7,
-        path_end_tolerance_m: float = 0.15,
-        blocked_timeout_s: float = 3.0,
-        facing_tolerance_deg: float = 17.0,
-        context: BuildContext,
-        remap: Mapping[str, str] | None = None,
-    ) -> None:
-        super().__init__(name, context=context, remap=remap)
-        self.arrival_radius_m = arrival_radius_m
-        self.path_end_tolerance_m = path_end_tolerance_m
-        self.blocked_timeout_s = blocked_timeout_s
-        self.facing_tolerance_rad = math.radians(facing_tolerance_deg)
+    arrival_radius_m: float = param(
+        "float", doc="SUCCESS within this distance of the subgoal, m", default=0.7, gt=0.0
+    )
+    path_end_tolerance_m: float = param(
+        "float", doc="or within this distance of the plan's end, m", default=0.15, gt=0.0
+    )
+    blocked_timeout_s: float = param(
+        "float", doc="FAILURE after no admissible motion for this long, s", default=3.0, gt=0.0
+    )
+    facing_tolerance_deg: float = param(
+        "float",
+        doc="on arrival, turn until the subgoal is this close to straight ahead, degrees",
+        default=17.0,
+        gt=0.0,
+        le=180.0,
+    )
+
+    def __init__(self, name: str, **kwargs: Any) -> None:
+        super().__init__(name, **kwargs)
+        self.facing_tolerance_rad = math.radians(self.facing_tolerance_deg)
         self._blocked_since: float | None = None
         self._arrived = False
 
@@ -139,7 +125,9 @@ class FollowPath(SemExpBehaviour):
             self._blocked_since = None
         return py_trees.common.Status.RUNNING
 
-    def _face(self, pose: Pose2D, goal_xy: tuple[float, float], costmap) -> py_trees.common.Status:  # type: ignore[no-untyped-def]
+    def _face(
+        self, pose: Pose2D, goal_xy: tuple[float, float], costmap: Costmap | None
+    ) -> py_trees.common.Status:
         """Arrival: turn in place toward the subgoal (when the footprint can), then SUCCESS."""
         bearing = math.remainder(
             math.atan2(goal_xy[1] - pose.y_m, goal_xy[0] - pose.x_m) - pose.yaw_rad, math.tau

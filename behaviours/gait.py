@@ -1,11 +1,18 @@
 """Gait: realise ``cmd_twist`` on the robot at the tick rate (50 Hz), with a stale-command watchdog.
 
-Semantics: always RUNNING. Every tick it reads ``cmd_twist``; when the command is older than
-``command_timeout_s`` (its writer stopped refreshing it) it substitutes a zero twist, as a velocity
-watchdog on a real robot does. In kinematic fidelity (or on a robot that walks by itself) it passes
-the twist to the backend; when a gait policy is configured it runs the policy, which turns the twist
-and proprioception into 12 joint targets. It never succeeds: it lives in a parallel branch beside the
-planner and is stopped when the branch ends.
+Semantics:
+
+- RUNNING: always. Every tick it reads ``cmd_twist``; when the command is older than
+  ``command_timeout_s`` (``cmd_stamp_s``: its writer stopped refreshing it), or was never written, it
+  substitutes a zero twist, as a velocity watchdog on a real robot does. Without a gait policy
+  (``services.gait`` is None: kinematic fidelity, or a robot that walks by itself) it passes the twist to
+  the backend (``robot.command_twist``); with one it runs the policy, which turns the twist and
+  proprioception into 12 joint targets.
+- It never succeeds or fails: it lives in a parallel branch beside the planner.
+- Halted: it stops the robot (``robot.stop()``, not a zero twist: with a gait policy the legs would freeze
+  mid-stride).
+
+Reads ``cmd_twist`` and ``cmd_stamp_s``; writes nothing.
 
 Example:
     - type: Gait
@@ -15,33 +22,19 @@ Example:
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-
 import py_trees
 
 from behaviours.base import SemExpBehaviour
-from behaviours.spec import BuildContext, ParamSpec
+from behaviours.spec import param
 from semexp_bt.core.types import Twist
 
 
 class Gait(SemExpBehaviour):
     READS = ("cmd_twist", "cmd_stamp_s")
-    PARAMS = {
-        "command_timeout_s": ParamSpec(
-            "float", doc="a cmd_twist older than this is replaced by zero, s", default=0.3, gt=0.0
-        ),
-    }
 
-    def __init__(
-        self,
-        name: str,
-        *,
-        command_timeout_s: float = 0.3,
-        context: BuildContext,
-        remap: Mapping[str, str] | None = None,
-    ) -> None:
-        super().__init__(name, context=context, remap=remap)
-        self.command_timeout_s = command_timeout_s
+    command_timeout_s: float = param(
+        "float", doc="a cmd_twist older than this is replaced by zero, s", default=0.3, gt=0.0
+    )
 
     def update(self) -> py_trees.common.Status:
         twist = self.read("cmd_twist", Twist.zero())

@@ -1,12 +1,18 @@
 """LowerSubgoalPotential: give the current subgoal up, and tell the decision layer how hard it was to reach.
 
-Semantics: scales the exploration potential of the subgoal's memory node by ``factor`` (Eq. 7 style: a
-subgoal the robot could not get to loses its pull), or by ``unreachable_factor`` (0: the node is marked
-unreachable) when navigation failed because no plan reaches it (``nav_failure`` is ``no_path`` or
-``start_blocked``). Eq. 8's candidate filter (P_explore >= tau_p) and Decide's relaxed pass (P > 0) both
-respect a zero potential, so an unreachable node is never chosen again unless new evidence for the
-instructed object revives it (UpdateMemory). It clears ``subgoal`` and returns SUCCESS, so the next
-decision picks something else. SUCCESS with a note when there is no subgoal.
+Semantics (it never returns RUNNING and holds no state, so halting it changes nothing):
+
+- SUCCESS: after scaling the exploration potential of the subgoal's memory node by ``factor`` (Eq. 7
+  style: a subgoal the robot could not get to loses its pull), or by ``unreachable_factor`` (0: the node
+  is marked unreachable) when navigation failed because no plan reaches it (``nav_failure`` is
+  ``no_path`` or ``start_blocked``), logging a ``subgoal_demoted`` (or ``subgoal_unreachable``) event and
+  clearing ``subgoal``, so the next decision picks something else. Eq. 8's candidate filter
+  (P_explore >= tau_p) and Decide's relaxed pass (P > 0) both respect a zero potential, so an unreachable
+  node is never chosen again unless new evidence for the instructed object revives it (UpdateMemory).
+- SUCCESS, with a note and nothing changed, when there is no subgoal or its node is no longer in memory.
+  It never fails.
+
+Reads ``nav_failure``; reads and writes ``subgoal`` and ``memory``.
 
 Example:
     - type: LowerSubgoalPotential
@@ -16,12 +22,10 @@ Example:
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-
 import py_trees
 
 from behaviours.base import SemExpBehaviour
-from behaviours.spec import BuildContext, ParamSpec
+from behaviours.spec import param
 
 #: ``nav_failure`` values that mean no plan reaches the subgoal.
 UNREACHABLE_FAILURES = ("no_path", "start_blocked")
@@ -30,35 +34,17 @@ UNREACHABLE_FAILURES = ("no_path", "start_blocked")
 class LowerSubgoalPotential(SemExpBehaviour):
     READS = ("subgoal", "memory", "nav_failure")
     WRITES = ("subgoal", "memory")
-    PARAMS = {
-        "factor": ParamSpec(
-            "float",
-            doc="scale applied to the subgoal node's exploration potential",
-            default=0.2,
-            ge=0.0,
-            le=1.0,
-        ),
-        "unreachable_factor": ParamSpec(
-            "float",
-            doc="scale applied instead when no plan reaches the subgoal (0: marked unreachable)",
-            default=0.0,
-            ge=0.0,
-            le=1.0,
-        ),
-    }
 
-    def __init__(
-        self,
-        name: str,
-        *,
-        factor: float = 0.2,
-        unreachable_factor: float = 0.0,
-        context: BuildContext,
-        remap: Mapping[str, str] | None = None,
-    ) -> None:
-        super().__init__(name, context=context, remap=remap)
-        self.factor = factor
-        self.unreachable_factor = unreachable_factor
+    factor: float = param(
+        "float", doc="scale applied to the subgoal node's exploration potential", default=0.2, ge=0.0, le=1.0
+    )
+    unreachable_factor: float = param(
+        "float",
+        doc="scale applied instead when no plan reaches the subgoal (0: marked unreachable)",
+        default=0.0,
+        ge=0.0,
+        le=1.0,
+    )
 
     def update(self) -> py_trees.common.Status:
         subgoal = self.read("subgoal")

@@ -1,8 +1,16 @@
 """MissionBudgetGuard: fail the mission when its time budget (backend clock) is spent.
 
-Semantics: RUNNING while ``now - start < budget_s`` (by default the mission's ``budget_s`` setting); then writes ``budget_exceeded`` to
-``mission_outcome``, stops the robot and returns FAILURE. It sits in the mission's root parallel, so
-its failure ends the mission safely.
+Semantics:
+
+- RUNNING: while less than ``budget_s`` of backend time has passed since its first tick (``budget_s`` 0,
+  the default: the mission's ``budget_s`` setting, ``services.budget_s``).
+- FAILURE: once the budget is spent, after stopping the robot, writing ``budget_exceeded`` to
+  ``mission_outcome`` and logging a ``budget_exceeded`` event. It sits in the mission's root parallel,
+  so its failure ends the mission safely.
+- Halted: the clock keeps running; the budget is counted from the first tick of the mission, never
+  restarted.
+
+Reads nothing from the board; writes ``mission_outcome``.
 
 Example:
     - type: MissionBudgetGuard
@@ -12,35 +20,28 @@ Example:
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from typing import Any
 
 import py_trees
 
 from behaviours.base import SemExpBehaviour
-from behaviours.spec import BuildContext, ParamSpec
+from behaviours.spec import param
 
 
 class MissionBudgetGuard(SemExpBehaviour):
     WRITES = ("mission_outcome",)
-    PARAMS = {
-        "budget_s": ParamSpec(
-            "float",
-            doc="mission time budget on the backend clock, s (0: the mission's budget_s setting)",
-            default=0.0,
-            ge=0.0,
-        ),
-    }
 
-    def __init__(
-        self,
-        name: str,
-        *,
-        budget_s: float = 0.0,
-        context: BuildContext,
-        remap: Mapping[str, str] | None = None,
-    ) -> None:
-        super().__init__(name, context=context, remap=remap)
-        self.budget_s = budget_s if budget_s > 0.0 else self.services.budget_s
+    budget_s: float = param(
+        "float",
+        doc="mission time budget on the backend clock, s (0: the mission's budget_s setting)",
+        default=0.0,
+        ge=0.0,
+    )
+
+    def __init__(self, name: str, **kwargs: Any) -> None:
+        super().__init__(name, **kwargs)
+        if self.budget_s <= 0.0:
+            self.budget_s = self.services.budget_s
         self._start_s: float | None = None
 
     def initialise(self) -> None:

@@ -1,8 +1,13 @@
 """NextInstruction: take the next instruction of a multi-object mission.
 
-Semantics: pops the first entry of ``instructions_left`` into ``instruction`` (and its object phrase
-into ``target_label``) and returns SUCCESS; FAILURE when the list is empty (the mission's loop ends).
-The memory is kept: nodes seen while searching for one object help find the next.
+Semantics (it never returns RUNNING and holds no state, so halting it changes nothing):
+
+- SUCCESS: after popping the first entry of ``instructions_left`` into ``instruction`` (and its object
+  phrase into ``target_label``) and logging a ``next_instruction`` event.
+- FAILURE: when ``instructions_left`` is empty (the mission's loop ends); nothing is written.
+
+Reads and writes ``instructions_left``; writes ``instruction`` and ``target_label``. The memory is kept:
+nodes seen while searching for one object help find the next.
 
 Example:
     - type: NextInstruction

@@ -1,11 +1,22 @@
 """Perceive: event-triggered, asynchronous scene- and object-level perception at a stable viewpoint.
 
-Semantics: on its first tick it waits (RUNNING, commanding zero twist) until the base is still (a
-stable viewpoint: speed below ``stable_speed_mps`` and yaw rate below ``stable_yaw_rate_radps``), then
-grabs one RGB-D frame and submits it to the perception service, which runs the VLM and the detector
-in parallel. It stays RUNNING while the models think (sim-time latency in MuJoCo, worker threads on a
-real robot) and never blocks a tick. When both answered it writes ``observation``, ``scene_evidence``
-and ``detections`` and returns SUCCESS. FAILURE when no answer arrives within ``timeout_s``.
+Semantics:
+
+- RUNNING, waiting: until the base is still (a stable viewpoint: speed below ``stable_speed_mps`` and yaw
+  rate below ``stable_yaw_rate_radps``), commanding a zero twist meanwhile.
+- RUNNING, thinking: once still, it grabs one RGB-D frame, writes it to ``observation``, adds it to
+  ``local_map`` (when there is one) and submits it to the perception service, which runs the VLM and the
+  detector in parallel (sim-time latency in MuJoCo, worker threads on a real robot). It never blocks a
+  tick.
+- SUCCESS: when both sources have answered, after writing ``scene_evidence`` and ``detections`` (and
+  logging each source's error as a ``perception_error`` event).
+- FAILURE: when no answer has arrived ``timeout_s`` after it started (waiting included); a
+  ``perception_timeout`` event is logged.
+- Halted: the pending request is cancelled.
+
+Reads ``instruction``, ``target_label`` and ``local_map``; writes ``observation``, ``scene_evidence``,
+``detections``, ``cmd_twist`` and ``cmd_stamp_s`` (the zero twist while waiting), and ``local_map`` (the
+frame added).
 
 Example:
     - type: Perceive
@@ -15,12 +26,12 @@ Example:
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from typing import Any
 
 import py_trees
 
 from behaviours.base import SemExpBehaviour
-from behaviours.spec import BuildContext, ParamSpec
+from behaviours.spec import param
 from semexp_bt.core.types import Twist
 from semexp_bt.perception.interface import PerceptionJob
 
@@ -28,32 +39,19 @@ from semexp_bt.perception.interface import PerceptionJob
 class Perceive(SemExpBehaviour):
     READS = ("instruction", "target_label", "local_map")
     WRITES = ("observation", "scene_evidence", "detections", "cmd_twist", "cmd_stamp_s", "local_map")
-    PARAMS = {
-        "stable_speed_mps": ParamSpec(
-            "float", doc="base speed below which the viewpoint is stable, m/s", default=0.05, gt=0.0
-        ),
-        "stable_yaw_rate_radps": ParamSpec(
-            "float", doc="yaw rate below which the viewpoint is stable, rad/s", default=0.1, gt=0.0
-        ),
-        "timeout_s": ParamSpec(
-            "float", doc="FAILURE if the models have not answered after this long, s", default=15.0, gt=0.0
-        ),
-    }
 
-    def __init__(
-        self,
-        name: str,
-        *,
-        stable_speed_mps: float = 0.05,
-        stable_yaw_rate_radps: float = 0.1,
-        timeout_s: float = 15.0,
-        context: BuildContext,
-        remap: Mapping[str, str] | None = None,
-    ) -> None:
-        super().__init__(name, context=context, remap=remap)
-        self.stable_speed_mps = stable_speed_mps
-        self.stable_yaw_rate_radps = stable_yaw_rate_radps
-        self.timeout_s = timeout_s
+    stable_speed_mps: float = param(
+        "float", doc="base speed below which the viewpoint is stable, m/s", default=0.05, gt=0.0
+    )
+    stable_yaw_rate_radps: float = param(
+        "float", doc="yaw rate below which the viewpoint is stable, rad/s", default=0.1, gt=0.0
+    )
+    timeout_s: float = param(
+        "float", doc="FAILURE if the models have not answered after this long, s", default=15.0, gt=0.0
+    )
+
+    def __init__(self, name: str, **kwargs: Any) -> None:
+        super().__init__(name, **kwargs)
         self._job: PerceptionJob | None = None
         self._started_s = 0.0
 

@@ -3,6 +3,23 @@
 The tree ticks at the gait rate (50 Hz in lockstep simulation) while some stages should run slower
 (the local planner at 12 Hz, paper Sec. III-F); this decorator gives a subtree its own rate without a
 second tree or a thread.
+
+Semantics (a decorator):
+
+- On a tick when the child is due (the first tick, the first after a halt, then on the grid
+  ``first + k / rate_hz``): the child is ticked and its status (SUCCESS, FAILURE or RUNNING) is returned.
+- On a tick in between: the child is not touched and its last status is returned again.
+- Halted: the held status is dropped, so the next tick reaches the child at once.
+
+Reads and writes no blackboard key (its child may); reads the backend clock (``BuildContext.clock``).
+
+Example:
+    - type: RateLimiter
+      name: Plan12Hz
+      params: {rate_hz: 12}
+      children:
+        - type: LocalPlan
+          name: LocalPlan
 """
 
 from __future__ import annotations

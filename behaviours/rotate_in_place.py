@@ -1,8 +1,16 @@
 """RotateInPlace: turn the base by a fixed angle, measured by odometry.
 
-Semantics: RUNNING while the accumulated yaw is short of ``angle_deg`` (commanding a pure yaw rate on
-``cmd_twist``), SUCCESS once it is reached, FAILURE if it takes longer than ``timeout_s`` of backend
-time (the base is blocked). Commands a zero twist when it ends or is preempted.
+Semantics:
+
+- RUNNING: while the yaw accumulated since it started is more than 2 degrees short of ``angle_deg``,
+  commanding a pure yaw rate (``yaw_rate_radps``, slowing down over the last 20 degrees so the gait does
+  not overshoot).
+- SUCCESS: once the angle is reached (within 2 degrees), after commanding a zero twist.
+- FAILURE: when it has taken longer than ``timeout_s`` of backend time (the base is blocked), after
+  commanding a zero twist.
+- Halted: it commands a zero twist.
+
+Reads nothing from the board; writes ``cmd_twist`` and ``cmd_stamp_s``.
 
 Example (the panoramic init turns in 8 steps of 45 degrees):
     - type: RotateInPlace
@@ -13,46 +21,30 @@ Example (the panoramic init turns in 8 steps of 45 degrees):
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from typing import Any
 
 import py_trees
 
 from behaviours.base import SemExpBehaviour
-from behaviours.spec import BuildContext, ParamSpec
+from behaviours.spec import param
 from semexp_bt.core.geometry import wrap_angle
 from semexp_bt.core.types import Twist
 
 
 class RotateInPlace(SemExpBehaviour):
     WRITES = ("cmd_twist", "cmd_stamp_s")
-    PARAMS = {
-        "angle_deg": ParamSpec(
-            "float",
-            doc="angle to turn, degrees (positive: counter-clockwise)",
-            default=45.0,
-            ge=-720.0,
-            le=720.0,
-        ),
-        "yaw_rate_radps": ParamSpec("float", doc="turning rate, rad/s", default=0.8, gt=0.0, le=1.5),
-        "timeout_s": ParamSpec(
-            "float", doc="give up (FAILURE) after this much backend time, s", default=15.0, gt=0.0
-        ),
-    }
 
-    def __init__(
-        self,
-        name: str,
-        *,
-        angle_deg: float = 45.0,
-        yaw_rate_radps: float = 0.8,
-        timeout_s: float = 15.0,
-        context: BuildContext,
-        remap: Mapping[str, str] | None = None,
-    ) -> None:
-        super().__init__(name, context=context, remap=remap)
-        self.angle_rad = math.radians(angle_deg)
-        self.yaw_rate_radps = abs(yaw_rate_radps)
-        self.timeout_s = timeout_s
+    angle_deg: float = param(
+        "float", doc="angle to turn, degrees (positive: counter-clockwise)", default=45.0, ge=-720.0, le=720.0
+    )
+    yaw_rate_radps: float = param("float", doc="turning rate, rad/s", default=0.8, gt=0.0, le=1.5)
+    timeout_s: float = param(
+        "float", doc="give up (FAILURE) after this much backend time, s", default=15.0, gt=0.0
+    )
+
+    def __init__(self, name: str, **kwargs: Any) -> None:
+        super().__init__(name, **kwargs)
+        self.angle_rad = math.radians(self.angle_deg)
         self._turned = 0.0
         self._last_yaw = 0.0
         self._started_s = 0.0

@@ -1,7 +1,13 @@
 """SeedMasterNode: put the master node v_m at the robot's current position.
 
-Semantics: SUCCESS once, on its first tick, after adding the master node to ``memory``; the master
-node is the initial viewpoint of the paper's Sec. III-D and is never pruned.
+Semantics (it never returns RUNNING):
+
+- SUCCESS: after adding the master node to ``memory`` at the robot's position. The master node is the
+  initial viewpoint of the paper's Sec. III-D and is never pruned.
+- It belongs at the very start of a mission and is ticked once: on a memory that already has a master,
+  or a node within delta_d of the robot, the memory raises ``InvalidInputError``.
+
+Reads and writes ``memory``.
 
 Example:
     - type: SeedMasterNode

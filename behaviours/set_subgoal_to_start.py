@@ -1,7 +1,11 @@
 """SetSubgoalToStart: make the master node (where the mission started) the subgoal.
 
-Semantics: writes a ``subgoal`` at the master node v_m and returns SUCCESS; FAILURE when the memory
-has no master node. Used by "search, then return to the start".
+Semantics (it never returns RUNNING and holds no state, so halting it changes nothing):
+
+- SUCCESS: after writing a ``subgoal`` at the master node v_m (utility 1).
+- FAILURE: when the memory has no master node; nothing is written.
+
+Reads ``memory``; writes ``subgoal``. Used by "search, then return to the start".
 
 Example:
     - type: SetSubgoalToStart

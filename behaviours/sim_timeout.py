@@ -3,6 +3,25 @@
 py_trees' own ``Timeout`` reads ``time.monotonic()``; in lockstep simulation the wall clock and the
 robot's clock disagree (a slow renderer would time out a healthy child, a fast one never would), so
 this decorator reads the clock handed over in :class:`~behaviours.spec.BuildContext`.
+
+Semantics (a decorator):
+
+- The deadline is armed on entry (the first tick, or the first after it finished or was halted):
+  ``now + duration_s``.
+- Before the deadline: the child is ticked and its status (SUCCESS, FAILURE or RUNNING) is passed through.
+- FAILURE: on a tick at or after the deadline with the child still RUNNING; the child is halted without
+  being ticked again.
+- Halted: the child is halted with it.
+
+Reads and writes no blackboard key (its child may).
+
+Example:
+    - type: SimTimeout
+      name: Execute
+      params: {duration_s: 40}
+      children:
+        - type: LocalPlan
+          name: LocalPlan
 """
 
 from __future__ import annotations

@@ -2,17 +2,20 @@
 
 A behaviour class states what a mission file may set on it as class attributes, and the tree registry
 (``trees/registry.py``) reads them; the generated node reference (``docs/node_reference.md``) is built
-from the same declarations, so a parameter is documented once, next to the code that uses it::
+from the same declarations, so a parameter is written once, next to the code that uses it. A product
+behaviour (``behaviours.base.SemExpBehaviour``) declares each parameter as a typed class attribute with
+:func:`param`, as a dataclass declares a field, and its blackboard keys as ``READS`` and ``WRITES``::
 
-    class PanoramicInit(py_trees.behaviour.Behaviour):
-        PARAMS: ClassVar[dict[str, ParamSpec]] = {
-            "views": ParamSpec("int", doc="views to perceive in one turn", default=8, ge=1, le=64),
-        }
-        BLACKBOARD_KEYS: ClassVar[dict[str, BlackboardKey]] = {
-            "memory": BlackboardKey("write", doc="the topological memory, seeded with the master node"),
-        }
+    class PanoramicInit(SemExpBehaviour):
+        WRITES = ("memory",)
 
-        def __init__(self, name: str, views: int, context: BuildContext) -> None: ...
+        views: int = param("int", doc="views to perceive in one turn", default=8, ge=1, le=64)
+
+The base class collects the declarations into ``PARAMS`` (name -> :class:`ParamSpec`) and
+``BLACKBOARD_KEYS`` (name -> :class:`BlackboardKey`), checks the values a node is built with against
+them, and sets ``self.views`` to the checked value (the default when the mission file leaves it out).
+Other node types (py_trees' own, ``RateLimiter``, ``SimTimeout``) state ``PARAMS`` directly or get a
+spec in the registry.
 
 This module lives in ``behaviours/`` rather than ``trees/`` because the layering is trees -> behaviours:
 a behaviour must be able to declare itself without importing the loader.
@@ -26,9 +29,11 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Literal
 
+from semexp_bt.core.bounds import Interval
 from semexp_bt.core.config import SemExpConfig
 
 if TYPE_CHECKING:
+    from blackboard.schema import KeyAccess
     from robots.interface import Robot
 
 ParamKind = Literal["int", "float", "bool", "str", "list", "enum", "any"]
@@ -186,15 +191,20 @@ class ParamSpec:
         return value, None
 
     def _range_problem(self, value: float) -> str | None:
-        for op, bound, ok in (
-            (">", self.gt, lambda v, b: v > b),
-            (">=", self.ge, lambda v, b: v >= b),
-            ("<", self.lt, lambda v, b: v < b),
-            ("<=", self.le, lambda v, b: v <= b),
-        ):
-            if bound is not None and not ok(value, bound):
-                return f"value {value!r} out of range: must be {op} {_number(bound)}"
-        return None
+        broken = Interval(gt=self.gt, ge=self.ge, lt=self.lt, le=self.le).broken_bound(value)
+        if broken is None:
+            return None
+        return f"value {value!r} out of range: must be {broken[0]} {_number(broken[1])}"
+
+
+def param(kind: ParamKind, doc: str, **options: Any) -> Any:
+    """Declare a behaviour parameter as a typed class attribute (see the module docstring).
+
+    ``options`` are the other fields of :class:`ParamSpec` (``default``, bounds, ``choices``, ...).
+    Returns the :class:`ParamSpec`, typed ``Any`` so that the attribute keeps its annotated type, as
+    ``dataclasses.field`` does: the class collects it into ``PARAMS`` and each instance holds the value.
+    """
+    return ParamSpec(kind, doc, **options)
 
 
 def _number(value: float) -> str:
@@ -213,7 +223,7 @@ class BlackboardKey:
         doc: what the value is, with its type.
     """
 
-    access: Literal["read", "write", "read_write"]
+    access: KeyAccess
     doc: str
 
 

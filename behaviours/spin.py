@@ -1,11 +1,17 @@
 """Spin: turn in place by an angle, checking the footprint against the costmap first (Nav2's Spin recovery).
 
-Semantics: RUNNING while the accumulated yaw (odometry) is short of ``angle_deg``, commanding
-``yaw_rate_radps`` as long as the next ``lookahead_s`` of the turn keeps the oriented footprint clear of
-lethal cells (the corners of the Go1's body sweep a circle of 0.41 m); SUCCESS once turned; FAILURE
-when the turn would sweep into an obstacle (it stops first) or after ``timeout_s``. The camera sees
-around while it turns, so the costmap learns what lies beside and behind the robot. Commands zero when
-it ends or is preempted. ``RotateInPlace`` (panoramic init, looking around) turns without the check.
+Semantics:
+
+- RUNNING: while the accumulated yaw (odometry) is short of ``angle_deg``, commanding up to
+  ``yaw_rate_radps`` (``cmd_twist``, ``cmd_stamp_s``) as long as the next ``lookahead_s`` of the turn
+  keeps the oriented footprint clear of lethal cells of ``local_map`` (the corners of the Go1's body
+  sweep a circle of 0.41 m).
+- SUCCESS: once turned (within 3 degrees); it commands a zero twist.
+- FAILURE: the turn would sweep into an obstacle (it stops first), or ``timeout_s`` has passed.
+- Halted while RUNNING: it commands a zero twist.
+
+The camera sees around while it turns, so the costmap learns what lies beside and behind the robot.
+``RotateInPlace`` (panoramic init, looking around) turns without the check.
 
 Example:
     - type: Spin
@@ -16,13 +22,13 @@ Example:
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from typing import Any
 
 import py_trees
 
 from behaviours.base import SemExpBehaviour
 from behaviours.follow_path import turn_is_admissible
-from behaviours.spec import BuildContext, ParamSpec
+from behaviours.spec import param
 from semexp_bt.core.geometry import wrap_angle
 from semexp_bt.core.types import Twist
 
@@ -30,35 +36,21 @@ from semexp_bt.core.types import Twist
 class Spin(SemExpBehaviour):
     READS = ("local_map",)
     WRITES = ("cmd_twist", "cmd_stamp_s")
-    PARAMS = {
-        "angle_deg": ParamSpec(
-            "float",
-            doc="angle to turn, degrees (positive: counter-clockwise)",
-            default=180.0,
-            ge=-720.0,
-            le=720.0,
-        ),
-        "yaw_rate_radps": ParamSpec("float", doc="turning rate, rad/s", default=0.8, gt=0.0, le=1.0),
-        "lookahead_s": ParamSpec("float", doc="the turn is checked this far ahead, s", default=0.5, gt=0.0),
-        "timeout_s": ParamSpec("float", doc="FAILURE after this long, s", default=15.0, gt=0.0),
-    }
 
-    def __init__(
-        self,
-        name: str,
-        *,
-        angle_deg: float = 180.0,
-        yaw_rate_radps: float = 0.8,
-        lookahead_s: float = 0.5,
-        timeout_s: float = 15.0,
-        context: BuildContext,
-        remap: Mapping[str, str] | None = None,
-    ) -> None:
-        super().__init__(name, context=context, remap=remap)
-        self.angle_rad = math.radians(angle_deg)
-        self.yaw_rate_radps = yaw_rate_radps
-        self.lookahead_s = lookahead_s
-        self.timeout_s = timeout_s
+    angle_deg: float = param(
+        "float",
+        doc="angle to turn, degrees (positive: counter-clockwise)",
+        default=180.0,
+        ge=-720.0,
+        le=720.0,
+    )
+    yaw_rate_radps: float = param("float", doc="turning rate, rad/s", default=0.8, gt=0.0, le=1.0)
+    lookahead_s: float = param("float", doc="the turn is checked this far ahead, s", default=0.5, gt=0.0)
+    timeout_s: float = param("float", doc="FAILURE after this long, s", default=15.0, gt=0.0)
+
+    def __init__(self, name: str, **kwargs: Any) -> None:
+        super().__init__(name, **kwargs)
+        self.angle_rad = math.radians(self.angle_deg)
         self._turned = 0.0
         self._last_yaw = 0.0
         self._started_s = 0.0

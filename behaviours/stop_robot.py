@@ -1,6 +1,11 @@
 """StopRobot: command a safe stop and record the mission outcome.
 
-Semantics: zero twist, ``robot.stop()``, writes ``outcome`` to ``mission_outcome``; SUCCESS.
+Semantics (it never returns RUNNING and holds no state, so halting it changes nothing):
+
+- SUCCESS: always, after commanding a zero twist, stopping the robot (``robot.stop()``) and writing
+  ``outcome`` to ``mission_outcome``.
+
+Reads nothing from the board; writes ``cmd_twist``, ``cmd_stamp_s`` and ``mission_outcome``.
 
 Example:
     - type: StopRobot
@@ -10,36 +15,22 @@ Example:
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-
 import py_trees
 
 from behaviours.base import SemExpBehaviour
-from behaviours.spec import BuildContext, ParamSpec
+from behaviours.spec import param
 from semexp_bt.core.types import Twist
 
 
 class StopRobot(SemExpBehaviour):
     WRITES = ("cmd_twist", "cmd_stamp_s", "mission_outcome")
-    PARAMS = {
-        "outcome": ParamSpec(
-            "enum",
-            doc="the mission outcome to record",
-            default="success",
-            choices=("success", "failed", "returned"),
-        ),
-    }
 
-    def __init__(
-        self,
-        name: str,
-        *,
-        outcome: str = "success",
-        context: BuildContext,
-        remap: Mapping[str, str] | None = None,
-    ) -> None:
-        super().__init__(name, context=context, remap=remap)
-        self.outcome = outcome
+    outcome: str = param(
+        "enum",
+        doc="the mission outcome to record",
+        default="success",
+        choices=("success", "failed", "returned"),
+    )
 
     def update(self) -> py_trees.common.Status:
         self.command(Twist.zero())

@@ -1,12 +1,21 @@
-"""StuckGuard: detect a robot that is commanded to move but does not make progress.
+"""StuckGuard: detect a robot that does not make progress while it should be moving.
 
-Semantics: RUNNING while the base has moved at least ``min_progress_m`` (or turned ``min_turn_deg``)
-within the last ``window_s`` of backend time; FAILURE (with ``stuck`` in the feedback and the event
-log) otherwise, so that the execute branch fails over to recovery. It also fails when the robot has
-not come ``min_approach_m`` closer to the ``subgoal`` within ``approach_window_s`` (a robot that
-dithers, turning back and forth in front of an obstacle it cannot pass, moves and turns but gets
-nowhere; without this it would spend the whole execute timeout there). It lives beside the planner
-in the execute branch, and restarts its windows each time the branch starts.
+Semantics:
+
+- RUNNING: while the base has moved at least ``min_progress_m`` (or turned ``min_turn_deg``) within the
+  last ``window_s`` of backend time, and has come ``min_approach_m`` closer to the ``subgoal`` within the
+  last ``approach_window_s`` (no subgoal: only the first rule applies).
+- FAILURE, "stuck": the base has neither moved nor turned enough for ``window_s``; a ``stuck`` event is
+  logged.
+- FAILURE, "no progress": the robot has not come ``min_approach_m`` closer to the subgoal for
+  ``approach_window_s``; a ``no_progress`` event is logged. A robot that dithers, turning back and forth
+  in front of an obstacle it cannot pass, moves and turns but gets nowhere; without this rule it would
+  spend the whole execute timeout there.
+- Halted: nothing to undo; the next start restarts both windows.
+
+Reads ``subgoal``; writes ``nav_failure`` (``stuck``) when it fails, so that recovery knows why (the
+execute branch's failure hands over to recovery). It lives beside the planner in the execute branch,
+and restarts its windows each time the branch starts.
 
 Example:
     - type: StuckGuard
@@ -17,56 +26,36 @@ Example:
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from typing import Any
 
 import py_trees
 
 from behaviours.base import SemExpBehaviour
-from behaviours.spec import BuildContext, ParamSpec
+from behaviours.spec import param
+from semexp_bt.core.geometry import wrap_angle
 
 
 class StuckGuard(SemExpBehaviour):
     READS = ("subgoal",)
     WRITES = ("nav_failure",)
-    PARAMS = {
-        "window_s": ParamSpec("float", doc="progress is judged over this window, s", default=8.0, gt=0.0),
-        "min_progress_m": ParamSpec("float", doc="least travel within the window, m", default=0.25, gt=0.0),
-        "min_turn_deg": ParamSpec(
-            "float", doc="or least turn within the window, degrees", default=60.0, gt=0.0
-        ),
-        "approach_window_s": ParamSpec(
-            "float",
-            doc="the subgoal must come min_approach_m closer within this window, s",
-            default=15.0,
-            gt=0.0,
-        ),
-        "min_approach_m": ParamSpec(
-            "float",
-            doc="least reduction of the distance to the subgoal within the approach window, m",
-            default=0.3,
-            gt=0.0,
-        ),
-    }
 
-    def __init__(
-        self,
-        name: str,
-        *,
-        window_s: float = 8.0,
-        min_progress_m: float = 0.25,
-        min_turn_deg: float = 60.0,
-        approach_window_s: float = 15.0,
-        min_approach_m: float = 0.3,
-        context: BuildContext,
-        remap: Mapping[str, str] | None = None,
-    ) -> None:
-        super().__init__(name, context=context, remap=remap)
-        self.window_s = window_s
-        self.min_progress_m = min_progress_m
-        self.min_turn_rad = math.radians(min_turn_deg)
+    window_s: float = param("float", doc="progress is judged over this window, s", default=8.0, gt=0.0)
+    min_progress_m: float = param("float", doc="least travel within the window, m", default=0.25, gt=0.0)
+    min_turn_deg: float = param("float", doc="or least turn within the window, degrees", default=60.0, gt=0.0)
+    approach_window_s: float = param(
+        "float", doc="the subgoal must come min_approach_m closer within this window, s", default=15.0, gt=0.0
+    )
+    min_approach_m: float = param(
+        "float",
+        doc="least reduction of the distance to the subgoal within the approach window, m",
+        default=0.3,
+        gt=0.0,
+    )
+
+    def __init__(self, name: str, **kwargs: Any) -> None:
+        super().__init__(name, **kwargs)
+        self.min_turn_rad = math.radians(self.min_turn_deg)
         self._anchor = (0.0, 0.0, 0.0, 0.0)
-        self.approach_window_s = approach_window_s
-        self.min_approach_m = min_approach_m
         self._approach: tuple[float, float] | None = None  # (stamp of the last approach, best distance)
 
     def _reset(self) -> None:
@@ -101,7 +90,7 @@ class StuckGuard(SemExpBehaviour):
         t0, x0, y0, yaw0 = self._anchor
         pose = self.services.robot.base_pose()
         moved = math.hypot(pose.x_m - x0, pose.y_m - y0)
-        turned = abs(math.remainder(pose.yaw_rad - yaw0, math.tau))
+        turned = abs(wrap_angle(pose.yaw_rad - yaw0))
         if moved >= self.min_progress_m or turned >= self.min_turn_rad:
             self._reset()
             return py_trees.common.Status.RUNNING

@@ -1,10 +1,14 @@
 """UpdateCostmap: add the head camera's latest depth frame to the costmap (``local_map``).
 
-Semantics: each tick it receives (the tree runs it behind a RateLimiter, 6 Hz by default) it asks the
-robot for a depth frame at the costmap's pixels only (``Robot.observe_depth(pixel_grids=...)``: a
-simulated camera casts rays there instead of rendering) and integrates it
-(:meth:`semexp_bt.nav.costmap.Costmap.integrate`: marking, clearing, footprint clearing, inflation where
-it changed). SUCCESS after each frame; FAILURE when there is no costmap on the board.
+Semantics (it never returns RUNNING):
+
+- SUCCESS: after asking the robot for a depth frame at the costmap's pixels only
+  (``Robot.observe_depth(pixel_grids=...)``: a simulated camera casts rays there instead of rendering)
+  and integrating it (:meth:`semexp_bt.nav.costmap.Costmap.integrate`: marking, clearing, footprint
+  clearing, inflation where it changed). The tree runs it behind a RateLimiter, 6 Hz by default.
+- FAILURE: there is no costmap on the board.
+
+Reads ``local_map`` and changes it in place (declared as a write of ``local_map``).
 
 Why 6 Hz and not the controller's 12: the controller reads only the costmap, and at walking speed
 (0.8 m/s) the robot moves 13 cm between two frames while the camera sees 6 m ahead; each frame costs a
@@ -21,21 +25,14 @@ Example:
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-
 import py_trees
 
 from behaviours.base import SemExpBehaviour
-from behaviours.spec import BuildContext
 
 
 class UpdateCostmap(SemExpBehaviour):
     READS = ("local_map",)
     WRITES = ("local_map",)
-    PARAMS = {}
-
-    def __init__(self, name: str, *, context: BuildContext, remap: Mapping[str, str] | None = None) -> None:
-        super().__init__(name, context=context, remap=remap)
 
     def update(self) -> py_trees.common.Status:
         costmap = self.read("local_map")

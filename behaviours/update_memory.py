@@ -1,13 +1,29 @@
 """UpdateMemory: grow the topological memory from the arbitrated evidence (paper Eq. 5-7).
 
-Semantics: back-projects the target pixel through the frame's intrinsics and camera-to-world
-transform (Eq. 5) and offers the point to the memory's gated insert-or-merge (Eq. 6). Candidates
-other than t* whose normalised score also passes the memory's C_f gate are offered too (so one view
-can add an object and an unexplored direction), and so are the context objects the VLM named
-(landmarks, e.g. "shelving rack"), weighted by the calibrated scene confidence. Directions and
-landmarks are places to go, not objects to touch: their node stands ``standoff_m`` in front of the
-surface the pixel sees, at most ``direction_range_m`` ahead. Then the surroundings of the robot count as observed (Eq. 7 decay), and a subgoal the
-robot now stands at is marked visited. Always SUCCESS; rejected offers are reported in the feedback.
+Semantics (it never returns RUNNING):
+
+- SUCCESS: always, after updating the memory as below; offers the memory rejected, and why, are in the
+  feedback.
+- Halted: nothing to undo; the revival counts (below) are kept over the mission.
+
+Reads ``arbitration``, ``target``, ``observation``, ``scene_evidence``, ``subgoal``, ``local_map`` and
+``instruction``; writes ``memory``. It also adds the labels of places (directions, frontiers) to
+``services.place_labels``, which the map-based decay reads.
+
+When there is an ``observation``, it back-projects the target pixel through the frame's intrinsics and
+camera-to-world transform (Eq. 5) and offers the point to the memory's gated insert-or-merge (Eq. 6).
+Candidates other than t* are offered too (with ``offer_all_candidates``; their normalised score must pass
+the memory's C_f gate), so one view can add an object and an unexplored direction; so are the other
+objects the VLM named (landmarks, e.g. "shelving rack"), weighted by the calibrated scene confidence,
+and up to ``max_frontiers`` open directions of the depth frame (``offer_frontiers``). Directions and
+frontiers are places to go, not objects to touch: their node stands ``standoff_m`` in front of the surface
+the pixel sees, at most ``direction_range_m`` ahead; an object's or a landmark's node sits on it. Only
+evidence for the instructed object may relabel a nearby node of another label.
+
+Then, with or without an observation: the surroundings of the robot count as observed (Eq. 7 decay);
+with a ``local_map``, place nodes whose neighbourhood the map has mostly seen decay too and the map's
+frontiers are offered as "unexplored area" nodes; and a subgoal within ``visit_radius_m`` is marked
+visited.
 
 Revival: a candidate for the instructed object whose raw Eq. 2 score reaches ``revive_min_score`` (both
 sources agree on it, not a lone weak detection) raises the potential of the node it merged into back to
@@ -24,16 +40,19 @@ Example:
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
-from typing import NamedTuple
+from collections.abc import Sequence
+from typing import Any, NamedTuple
 
 import numpy as np
 import py_trees
 
 from behaviours.base import INSTRUCTED_OBJECT_RELEVANCE, SemExpBehaviour
-from behaviours.spec import BuildContext, ParamSpec
+from behaviours.spec import param
 from semexp_bt.core.evidence import calibrate, candidate_box
 from semexp_bt.core.geometry import back_project, object_surface_depth
+from semexp_bt.core.memory import TopologicalMemory
+from semexp_bt.core.types import FloatArray, Pose2D
+from semexp_bt.nav.costmap import Costmap
 from semexp_bt.nav.frontier import depth_frontiers
 
 Box = tuple[float, float, float, float]
@@ -55,107 +74,87 @@ FRONTIER_LABEL = "unexplored area"
 
 
 class UpdateMemory(SemExpBehaviour):
-    READS = ("arbitration", "target", "observation", "subgoal", "scene_evidence", "local_map", "instruction")
+    READS = (
+        "arbitration",
+        "target",
+        "observation",
+        "subgoal",
+        "scene_evidence",
+        "local_map",
+        "instruction",
+        "memory",
+    )
     WRITES = ("memory",)
-    PARAMS = {
-        "direction_range_m": ParamSpec(
-            "float", doc="depth cap for unexplored-direction proposals, m", default=3.0, gt=0.0
-        ),
-        "visit_radius_m": ParamSpec(
-            "float", doc="a subgoal within this distance counts as visited, m", default=1.0, gt=0.0
-        ),
-        "standoff_m": ParamSpec(
-            "float",
-            doc="place nodes (directions, landmarks) stop this far in front of the seen surface, m",
-            default=0.6,
-            ge=0.0,
-        ),
-        "landmark_weight": ParamSpec(
-            "float",
-            doc="confidence of a VLM-named landmark node relative to the calibrated scene confidence "
-            "(0: no landmark nodes)",
-            default=0.8,
-            ge=0.0,
-            le=1.0,
-        ),
-        "offer_all_candidates": ParamSpec(
-            "bool", doc="offer every candidate (not only t*) to the gated insert", default=True
-        ),
-        "offer_frontiers": ParamSpec(
-            "bool",
-            doc="also offer the depth frame's open directions (geometric frontiers) as place nodes, so "
-            "the search never starves when the VLM names no direction",
-            default=True,
-        ),
-        "frontier_open_range_m": ParamSpec(
-            "float", doc="a frontier column has no obstacle nearer than this, m", default=1.5, gt=0.0
-        ),
-        "frontier_min_width_deg": ParamSpec(
-            "float", doc="narrowest open run of columns that makes a frontier, degrees", default=8.0, gt=0.0
-        ),
-        "frontier_confidence": ParamSpec(
-            "float",
-            doc="confidence of a geometric frontier node (above the memory's C_f gate)",
-            default=0.5,
-            ge=0.0,
-            le=1.0,
-        ),
-        "max_frontiers": ParamSpec("int", doc="at most this many frontiers per view", default=2, ge=0),
-        "map_frontier_confidence": ParamSpec(
-            "float",
-            doc="confidence of a node at an occupancy-map frontier (0: no map frontiers)",
-            default=0.6,
-            ge=0.0,
-            le=1.0,
-        ),
-        "revive_min_score": ParamSpec(
-            "float",
-            doc="least raw Eq. 2 score of an instructed-object candidate that revives the potential of "
-            "the node it merges into (1: never revive)",
-            default=0.15,
-            ge=0.0,
-            le=1.0,
-        ),
-        "max_revivals": ParamSpec("int", doc="most revivals of one node per mission", default=2, ge=0),
-    }
 
-    def __init__(
-        self,
-        name: str,
-        *,
-        direction_range_m: float = 3.0,
-        visit_radius_m: float = 1.0,
-        offer_all_candidates: bool = True,
-        standoff_m: float = 0.6,
-        landmark_weight: float = 0.8,
-        offer_frontiers: bool = True,
-        frontier_open_range_m: float = 1.5,
-        frontier_min_width_deg: float = 8.0,
-        frontier_confidence: float = 0.5,
-        max_frontiers: int = 2,
-        map_frontier_confidence: float = 0.6,
-        revive_min_score: float = 0.15,
-        max_revivals: int = 2,
-        context: BuildContext,
-        remap: Mapping[str, str] | None = None,
-    ) -> None:
-        super().__init__(name, context=context, remap=remap)
-        self.direction_range_m = direction_range_m
-        self.visit_radius_m = visit_radius_m
-        self.offer_all_candidates = offer_all_candidates
-        self.standoff_m = standoff_m
-        self.landmark_weight = landmark_weight
-        self.min_place_depth_m = 0.5
-        self.map_observe_radius_m = 6.0
-        self.seen_fraction = 0.85
-        self.map_frontier_confidence = map_frontier_confidence
-        self.offer_frontiers = offer_frontiers
-        self.frontier_open_range_m = frontier_open_range_m
-        self.frontier_min_width_deg = frontier_min_width_deg
-        self.frontier_confidence = frontier_confidence
-        self.max_frontiers = max_frontiers
-        self.revive_min_score = revive_min_score
-        self.max_revivals = max_revivals
+    direction_range_m: float = param(
+        "float", doc="depth cap for unexplored-direction proposals, m", default=3.0, gt=0.0
+    )
+    visit_radius_m: float = param(
+        "float", doc="a subgoal within this distance counts as visited, m", default=1.0, gt=0.0
+    )
+    standoff_m: float = param(
+        "float",
+        doc="place nodes (directions, landmarks) stop this far in front of the seen surface, m",
+        default=0.6,
+        ge=0.0,
+    )
+    landmark_weight: float = param(
+        "float",
+        doc="confidence of a VLM-named landmark node relative to the calibrated scene confidence "
+        "(0: no landmark nodes)",
+        default=0.8,
+        ge=0.0,
+        le=1.0,
+    )
+    offer_all_candidates: bool = param(
+        "bool", doc="offer every candidate (not only t*) to the gated insert", default=True
+    )
+    offer_frontiers: bool = param(
+        "bool",
+        doc="also offer the depth frame's open directions (geometric frontiers) as place nodes, so "
+        "the search never starves when the VLM names no direction",
+        default=True,
+    )
+    frontier_open_range_m: float = param(
+        "float", doc="a frontier column has no obstacle nearer than this, m", default=1.5, gt=0.0
+    )
+    frontier_min_width_deg: float = param(
+        "float", doc="narrowest open run of columns that makes a frontier, degrees", default=8.0, gt=0.0
+    )
+    frontier_confidence: float = param(
+        "float",
+        doc="confidence of a geometric frontier node (above the memory's C_f gate)",
+        default=0.5,
+        ge=0.0,
+        le=1.0,
+    )
+    max_frontiers: int = param("int", doc="at most this many frontiers per view", default=2, ge=0)
+    map_frontier_confidence: float = param(
+        "float",
+        doc="confidence of a node at an costmap frontier (0: no map frontiers)",
+        default=0.6,
+        ge=0.0,
+        le=1.0,
+    )
+    revive_min_score: float = param(
+        "float",
+        doc="least raw Eq. 2 score of an instructed-object candidate that revives the potential of "
+        "the node it merges into (1: never revive)",
+        default=0.15,
+        ge=0.0,
+        le=1.0,
+    )
+    max_revivals: int = param("int", doc="most revivals of one node per mission", default=2, ge=0)
+
+    #: A place node stands at least this far from the camera, m.
+    min_place_depth_m = 0.5
+    #: Eq. 7 on the costmap: place nodes within this radius of the robot are checked, m ...
+    map_observe_radius_m = 6.0
+    #: ... and decay once the map knows this share of their 1 m neighbourhood.
+    seen_fraction = 0.85
+
+    def __init__(self, name: str, **kwargs: Any) -> None:
+        super().__init__(name, **kwargs)
         self._revivals: dict[int, int] = {}
 
     def _offers(self) -> list[Offer]:
@@ -287,7 +286,7 @@ class UpdateMemory(SemExpBehaviour):
         self.feedback_message = f"{len(memory)} nodes; " + ", ".join(outcomes[:4])
         return py_trees.common.Status.SUCCESS
 
-    def _revive(self, memory, node_id: int, label: str, score: float) -> list[str]:  # type: ignore[no-untyped-def]
+    def _revive(self, memory: TopologicalMemory, node_id: int, label: str, score: float) -> list[str]:
         """Revival (see the module docstring): strong evidence for the instructed object restores its node."""
         if score < self.revive_min_score or self._revivals.get(node_id, 0) >= self.max_revivals:
             return []
@@ -304,7 +303,7 @@ class UpdateMemory(SemExpBehaviour):
         return self.names_instructed_object(label, threshold=0.6)
 
     @staticmethod
-    def _would_relabel(memory, point, label: str) -> bool:  # type: ignore[no-untyped-def]
+    def _would_relabel(memory: TopologicalMemory, point: Sequence[float] | FloatArray, label: str) -> bool:
         """Whether offering a place (a direction, a landmark, a frontier) at ``point`` would merge into a
         nearby node of another label: Eq. 6 relabels a node when the newcomer is more confident, and a
         frontier must never turn a fire-extinguisher node into "unexplored area"."""
@@ -314,8 +313,8 @@ class UpdateMemory(SemExpBehaviour):
         node_id, distance = nearest
         return distance <= memory.config.delta_d and memory.node(node_id).label != label
 
-    def _map_exploration(self, memory, local_map, pose) -> list[str]:  # type: ignore[no-untyped-def]
-        """Eq. 7 with "surroundings observed" measured on the occupancy map, plus map frontiers as nodes.
+    def _map_exploration(self, memory: TopologicalMemory, local_map: Costmap, pose: Pose2D) -> list[str]:
+        """Eq. 7 with "surroundings observed" measured on the costmap, plus its frontiers as nodes.
 
         A place node (not an instructed object) whose 1 m neighbourhood the map has now mostly seen decays
         by (1 - xi): nothing is left to discover there. And the seen/unseen boundary of the map (the

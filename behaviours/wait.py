@@ -1,7 +1,10 @@
 """Wait: stand still for a while (Nav2's Wait recovery: let the sensors and the map settle).
 
-Semantics: commands a zero twist; RUNNING until ``duration_s`` of robot time has passed since it
-started, then SUCCESS.
+Semantics:
+
+- RUNNING: until ``duration_s`` of robot time has passed since it started, commanding a zero twist
+  (``cmd_twist``, ``cmd_stamp_s``) every tick.
+- SUCCESS: once the time has passed. It never fails; halting it leaves the zero command in place.
 
 Example:
     - type: Wait
@@ -11,29 +14,22 @@ Example:
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from typing import Any
 
 import py_trees
 
 from behaviours.base import SemExpBehaviour
-from behaviours.spec import BuildContext, ParamSpec
+from behaviours.spec import param
 from semexp_bt.core.types import Twist
 
 
 class Wait(SemExpBehaviour):
     WRITES = ("cmd_twist", "cmd_stamp_s")
-    PARAMS = {"duration_s": ParamSpec("float", doc="how long to stand still, s", default=1.0, gt=0.0)}
 
-    def __init__(
-        self,
-        name: str,
-        *,
-        duration_s: float = 1.0,
-        context: BuildContext,
-        remap: Mapping[str, str] | None = None,
-    ) -> None:
-        super().__init__(name, context=context, remap=remap)
-        self.duration_s = duration_s
+    duration_s: float = param("float", doc="how long to stand still, s", default=1.0, gt=0.0)
+
+    def __init__(self, name: str, **kwargs: Any) -> None:
+        super().__init__(name, **kwargs)
         self._until = 0.0
 
     def initialise(self) -> None:

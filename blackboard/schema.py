@@ -1,18 +1,24 @@
-"""The blackboard schema: every key the mission tree uses, its type, and who writes it.
+"""The blackboard schema: every key the mission tree uses, its type and what it holds.
 
 This module is the one place where blackboard keys are named. Behaviours register keys through
 :func:`register_keys`, which refuses a key that is not in :data:`SCHEMA`, and write through
 :func:`checked_write`, which refuses a value of the wrong type. The topological memory lives on the
 board under ``memory``.
 
+Who reads and writes a key is not written here: each behaviour declares its ``READS`` and ``WRITES``
+(:func:`key_access` turns them into one access per key), and ``trees.registry.key_uses`` collects them,
+with the runner's initial writes, into the key table of ``docs/node_reference.md``.
+
 Isolation: py_trees keeps one process-wide blackboard. :func:`fresh_board` clears it and its activity
 stream before a mission, so two missions run one after another in one process share no state (they
 cannot run concurrently in one process; the benchmark harness uses one process per worker).
 
 Example:
-    >>> from blackboard.schema import SCHEMA
-    >>> SCHEMA["memory"].writers
-    ('runner', 'SeedMasterNode', 'UpdateMemory', 'ConfirmTarget', 'LowerSubgoalPotential')
+    >>> from blackboard.schema import SCHEMA, key_access
+    >>> SCHEMA["memory"].types
+    (<class 'semexp_bt.core.memory.TopologicalMemory'>,)
+    >>> key_access(reads=("subgoal", "memory"), writes=("memory",))
+    {'subgoal': 'read', 'memory': 'read_write'}
 """
 
 from __future__ import annotations
@@ -20,7 +26,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Mapping
 from dataclasses import asdict, dataclass, is_dataclass
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 import py_trees
@@ -30,6 +36,9 @@ from semexp_bt.core.types import Detection, Observation, Pose2D, SafetyState, Sc
 from semexp_bt.nav.costmap import Costmap
 from semexp_bt.nav.global_planner import GlobalPlan
 
+#: How a behaviour may use a key: ``read``, ``write``, or both.
+KeyAccess = Literal["read", "write", "read_write"]
+
 
 @dataclass(frozen=True)
 class KeySpec:
@@ -37,122 +46,89 @@ class KeySpec:
 
     Attributes:
         key: the key (absolute, without the leading '/').
-        types: accepted value types; ``type(None)`` in it means the key may hold None.
-        writers: the behaviours (or ``runner``) that write it.
+        types: accepted value types; ``type(None)`` in it means the key may hold None, ``object`` any value.
         doc: what it holds.
     """
 
     key: str
     types: tuple[type, ...]
-    writers: tuple[str, ...]
     doc: str
 
 
 _NONE = type(None)
 
-
-def _spec(key: str, types: tuple[type, ...], writers: tuple[str, ...], doc: str) -> tuple[str, KeySpec]:
-    return key, KeySpec(key=key, types=types, writers=writers, doc=doc)
-
-
-SCHEMA: dict[str, KeySpec] = dict(
-    [
-        _spec(
-            "instruction", (str,), ("runner", "NextInstruction"), "the current natural-language instruction"
-        ),
-        _spec(
-            "target_label",
-            (str,),
-            ("runner", "NextInstruction"),
-            "object phrase extracted from the instruction",
-        ),
-        _spec(
-            "instructions_left", (list,), ("runner", "NextInstruction"), "instructions still to search for"
-        ),
-        _spec("start_pose", (Pose2D,), ("runner",), "the robot's pose when the mission started"),
-        _spec(
-            "memory",
-            (TopologicalMemory,),
-            ("runner", "SeedMasterNode", "UpdateMemory", "ConfirmTarget", "LowerSubgoalPotential"),
-            "the controlled-growth semantic topological memory",
-        ),
-        _spec(
-            "observation",
-            (Observation, _NONE),
-            ("Perceive", "ConfirmTarget"),
-            "the last RGB-D frame perceived",
-        ),
-        _spec(
-            "scene_evidence", (SceneEvidence, _NONE), ("Perceive", "ConfirmTarget"), "the VLM's last reply"
-        ),
-        _spec(
+SCHEMA: dict[str, KeySpec] = {
+    spec.key: spec
+    for spec in (
+        KeySpec("instruction", (str,), "the current natural-language instruction"),
+        KeySpec("target_label", (str,), "object phrase extracted from the instruction"),
+        KeySpec("instructions_left", (list,), "instructions still to search for"),
+        KeySpec("start_pose", (Pose2D,), "the robot's pose when the mission started"),
+        KeySpec("memory", (TopologicalMemory,), "the controlled-growth semantic topological memory"),
+        KeySpec("observation", (Observation, _NONE), "the last RGB-D frame perceived"),
+        KeySpec("scene_evidence", (SceneEvidence, _NONE), "the VLM's last reply"),
+        KeySpec(
             "detections",
             (tuple, _NONE),
-            ("Perceive", "ConfirmTarget"),
             "the detector's last detections (None: the object-level source is missing)",
         ),
-        _spec(
-            "arbitration",
-            (object,),
-            ("Arbitrate", "ConfirmTarget"),
-            "the last ArbitrationResult (every candidate with its score) or None",
+        KeySpec(
+            "arbitration", (object,), "the last ArbitrationResult (every candidate with its score) or None"
         ),
-        _spec("target", (object,), ("Arbitrate", "ConfirmTarget"), "the last arbitrated Target or None"),
-        _spec(
+        KeySpec("target", (object,), "the last arbitrated Target or None"),
+        KeySpec(
             "local_map",
             (Costmap, _NONE),
-            ("runner", "Perceive", "UpdateCostmap", "ClearCostmapAroundRobot"),
             "the costmap built from depth and odometry (semexp_bt.nav.costmap.Costmap, odometry frame): "
             "paths are planned on it, frontiers come from it",
         ),
-        _spec(
+        KeySpec(
             "global_plan",
             (GlobalPlan, _NONE),
-            ("ComputePathToSubgoal",),
             "the last global plan to the subgoal (semexp_bt.nav.global_planner.GlobalPlan) or None",
         ),
-        _spec(
+        KeySpec(
             "nav_failure",
             (str, _NONE),
-            ("ComputePathToSubgoal", "FollowPath", "StuckGuard"),
             "why navigation to the subgoal last failed (no_path, start_blocked, blocked, stuck) or None",
         ),
-        _spec(
-            "subgoal",
-            (Subgoal, _NONE),
-            ("Decide", "SetSubgoalToStart", "LowerSubgoalPotential"),
-            "the subgoal being executed",
-        ),
-        _spec("decision", (object,), ("Decide",), "the last DecisionResult or None"),
-        _spec(
-            "cmd_twist",
-            (Twist,),
-            ("FollowPath", "RotateInPlace", "Spin", "BackUp", "Wait", "StopRobot"),
-            "the base velocity command the gait executes",
-        ),
-        _spec(
+        KeySpec("subgoal", (Subgoal, _NONE), "the subgoal being executed"),
+        KeySpec("decision", (object,), "the last DecisionResult or None"),
+        KeySpec("cmd_twist", (Twist,), "the base velocity command the gait executes"),
+        KeySpec(
             "cmd_stamp_s",
             (float,),
-            ("FollowPath", "RotateInPlace", "Spin", "BackUp", "Wait", "StopRobot"),
             "backend time of the last cmd_twist write; the gait's watchdog stops a stale command",
         ),
-        _spec("plan", (object,), ("FollowPath",), "the controller's last ControlResult or None"),
-        _spec("found_objects", (list,), ("ConfirmTarget",), "confirmed targets: label, position, stamp"),
-        _spec(
-            "mission_outcome",
-            (str,),
-            ("runner", "StopRobot", "MissionBudgetGuard", "FallGuard", "StuckGuard"),
-            "running | success | budget_exceeded | fallen | stuck | failed",
-        ),
-        _spec(
-            "safety", (SafetyState, _NONE), ("ClearanceGuard", "FallGuard"), "the backend's last safety state"
-        ),
-    ]
-)
+        KeySpec("plan", (object,), "the controller's last ControlResult or None"),
+        KeySpec("found_objects", (list,), "confirmed targets: label, position, stamp"),
+        KeySpec("mission_outcome", (str,), "running | success | budget_exceeded | fallen | stuck | failed"),
+        KeySpec("safety", (SafetyState, _NONE), "the backend's last safety state"),
+    )
+}
 
 
 class SchemaError(KeyError):
     """A behaviour used a key that the schema does not define, or wrote a value of the wrong type."""
+
+
+def key_access(*, reads: Iterable[str], writes: Iterable[str]) -> dict[str, KeyAccess]:
+    """The access of every key a behaviour declares: ``read_write`` for a key it reads and writes, else
+    ``write`` or ``read``; in declaration order, reads first.
+
+    The one rule behind both the keys a behaviour registers (:func:`register_keys`) and the keys its
+    node reference lists (``behaviours.base.SemExpBehaviour.BLACKBOARD_KEYS``).
+
+    Raises:
+        SchemaError: for a key the schema does not define.
+    """
+    reads, writes = tuple(reads), tuple(writes)
+    access: dict[str, KeyAccess] = {}
+    for key in dict.fromkeys((*reads, *writes)):
+        if key not in SCHEMA:
+            raise SchemaError(f"blackboard key '{key}' is not in blackboard.schema.SCHEMA")
+        access[key] = "read_write" if key in reads and key in writes else "write" if key in writes else "read"
+    return access
 
 
 def register_keys(
@@ -174,16 +150,19 @@ def register_keys(
     Raises:
         SchemaError: for a key or remap target the schema does not define.
     """
+    access = key_access(reads=read, writes=write)
     remap = dict(remap or {})
-    for logical in remap:
-        if logical not in set(read) | set(write):
+    for logical, target in remap.items():
+        if logical not in access:
             raise SchemaError(f"remap names key '{logical}' that this behaviour does not use")
-    for access, keys in ((py_trees.common.Access.READ, read), (py_trees.common.Access.WRITE, write)):
-        for key in keys:
-            target = remap.get(key, key)
-            if key not in SCHEMA or target not in SCHEMA:
-                raise SchemaError(f"blackboard key '{target}' is not in blackboard.schema.SCHEMA")
-            client.register_key(key=key, access=access, remap_to="/" + target)
+        if target not in SCHEMA:
+            raise SchemaError(f"blackboard key '{target}' is not in blackboard.schema.SCHEMA")
+    for key, mode in access.items():
+        board_key = "/" + remap.get(key, key)
+        if mode != "write":
+            client.register_key(key=key, access=py_trees.common.Access.READ, remap_to=board_key)
+        if mode != "read":
+            client.register_key(key=key, access=py_trees.common.Access.WRITE, remap_to=board_key)
 
 
 def checked_write(client: py_trees.blackboard.Client, key: str, value: Any) -> None:
@@ -230,9 +209,3 @@ def summarize(value: Any) -> Any:
             out[k] = summarize(v)
         return out
     return repr(value)[:200]
-
-
-def snapshot_board() -> dict[str, Any]:
-    """Every schema key currently on the board, summarised."""
-    storage = py_trees.blackboard.Blackboard.storage
-    return {key: summarize(storage["/" + key]) for key in SCHEMA if "/" + key in storage}

@@ -27,6 +27,7 @@ import numpy as np
 import numpy.typing as npt
 
 from robots.go1 import LEG_NAMES, NUM_JOINTS, load_go1_spec
+from semexp_bt.core.geometry import wrap_angle
 from semexp_bt.core.types import FloatArray, InvalidInputError, Twist, require_finite
 
 if TYPE_CHECKING:
@@ -165,7 +166,7 @@ class TrotPrior:
         cos_knee = np.clip((reach_sq - 2.0 * link**2) / (2.0 * link**2), -1.0, 1.0)
         knee = -np.arccos(cos_knee)
         thigh = np.arctan2(-x, plane) - 0.5 * knee
-        hip = (hip + np.pi) % (2.0 * np.pi) - np.pi
+        hip = wrap_angle(hip)
         return np.stack([hip, thigh, knee], axis=-1).reshape(feet.shape[0], NUM_JOINTS)
 
 

@@ -20,7 +20,6 @@ from __future__ import annotations
 import math
 import re
 import xml.etree.ElementTree as ET
-from typing import Literal
 
 import mujoco
 import numpy as np
@@ -36,11 +35,9 @@ from robots.go1 import (
     leg_envelope,
     load_go1_spec,
 )
+from robots.interface import FIDELITIES, Fidelity
 from semexp_bt.core.scene import SceneObject, SceneSpec
 from semexp_bt.core.types import BACKGROUND_OBJECT_ID
-
-Fidelity = Literal["kinematic", "dynamic"]
-FIDELITIES: tuple[str, ...] = ("kinematic", "dynamic")
 
 FLOOR_GEOM_NAME = "floor"
 KINEMATIC_JOINT_NAMES: tuple[str, str, str] = ("base_x", "base_y", "base_yaw")

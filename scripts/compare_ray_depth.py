@@ -20,13 +20,13 @@ from pathlib import Path
 os.environ.setdefault("MUJOCO_GL", "egl")
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-import numpy as np  # noqa: E402
+import numpy as np
 
-from robots.mujoco_backend import MujocoRobot  # noqa: E402
-from semexp_bt.core.types import PixelGrid, Pose2D  # noqa: E402
-from semexp_bt.nav.costmap import CostmapConfig  # noqa: E402
-from sims.catalogue import build_scene, list_scenes  # noqa: E402
-from sims.episodes import sample_episode  # noqa: E402
+from robots.mujoco_backend import MujocoRobot
+from semexp_bt.core.types import PixelGrid, Pose2D
+from semexp_bt.nav.costmap import CostmapConfig
+from sims.catalogue import build_scene, list_scenes
+from sims.episodes import sample_episode
 
 #: Headings (rad, added to the start's) per fidelity.
 HEADINGS_RAD = {"kinematic": (0.0, 1.5, 3.0, 4.5), "dynamic": (0.0,)}

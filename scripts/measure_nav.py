@@ -22,14 +22,14 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from robots.go1 import go1_footprint  # noqa: E402
-from robots.mujoco_backend import MujocoRobot  # noqa: E402
-from semexp_bt.app.components import PLANNERS  # noqa: E402
-from semexp_bt.nav.costmap import Costmap, CostmapConfig  # noqa: E402
-from semexp_bt.nav.global_planner import GlobalPlanner  # noqa: E402
-from sims.catalogue import build_scene  # noqa: E402
-from sims.episodes import sample_episode  # noqa: E402
-from sims.geodesic import GeodesicOracle  # noqa: E402
+from robots.go1 import go1_footprint
+from robots.mujoco_backend import MujocoRobot
+from semexp_bt.app.components import PLANNERS
+from semexp_bt.nav.costmap import Costmap, CostmapConfig
+from semexp_bt.nav.global_planner import GlobalPlanner
+from sims.catalogue import build_scene
+from sims.episodes import sample_episode
+from sims.geodesic import GeodesicOracle
 
 
 def walk(scene_name: str, seed: int, controller_name: str, seconds: float) -> dict[str, list[float]]:

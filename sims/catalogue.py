@@ -1,49 +1,39 @@
-"""The scene catalogue: every scene's name, its builder, and a one-line summary for ``semexp-bt scene list``.
+"""The scene catalogue: every scene's name, in report order, and a one-line summary for ``semexp-bt scene list``.
 
-Scenes are listed once, in :data:`SCENE_BUILDERS` (the paper's five simulation scenes first, then the
-simulated analogues of its five real-world scenes). ``build_scene(name, seed=s)`` is deterministic:
-the same name and seed give an equal :class:`~semexp_bt.core.scene.SceneSpec`.
+Scenes are listed once, in ``sims/scenes/catalogue.yaml`` (the paper's five simulation scenes first, then
+the simulated analogues of its five real-world scenes); each scene's layout is data in
+``sims/scenes/data/<name>.yaml``. ``build_scene(name, seed=s)`` is deterministic: the same name and seed
+give an equal :class:`~semexp_bt.core.scene.SceneSpec`.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import functools
 from dataclasses import dataclass
+from pathlib import Path
+
+import yaml
 
 from semexp_bt.core.scene import SceneSpec
 from semexp_bt.core.types import InvalidInputError
-from sims.scenes import (
-    garden_real,
-    garden_sim,
-    laboratory,
-    living_room,
-    office,
-    road,
-    showroom,
-    sidewalk,
-    warehouse_a,
-    warehouse_b,
-)
-from sims.scenes._placement import load_scene_data
+from sims.scenes.placement import build_scene_from_data, load_scene_data
 
-SceneBuilder = Callable[..., SceneSpec]
+#: The catalogue's data: scene names by group, in report order.
+CATALOGUE_FILE = Path(__file__).resolve().parent / "scenes" / "catalogue.yaml"
+#: The catalogue's groups, in report order.
+SCENE_GROUPS = ("simulation", "real_analogue")
 
-#: name -> builder(seed=...). The only list of scenes.
-SCENE_BUILDERS: dict[str, SceneBuilder] = {
-    module.SCENE_NAME: module.build
-    for module in (
-        garden_sim,
-        sidewalk,
-        road,
-        warehouse_a,
-        warehouse_b,
-        office,
-        showroom,
-        laboratory,
-        living_room,
-        garden_real,
-    )
-}
+
+@functools.cache
+def _catalogue() -> dict[str, tuple[str, ...]]:
+    data = yaml.safe_load(CATALOGUE_FILE.read_text(encoding="utf-8"))
+    if not isinstance(data, dict) or set(data) != set(SCENE_GROUPS):
+        raise ValueError(f"{CATALOGUE_FILE}: expected exactly the groups {list(SCENE_GROUPS)}")
+    groups = {group: tuple(str(name) for name in data[group]) for group in SCENE_GROUPS}
+    names = [name for group in SCENE_GROUPS for name in groups[group]]
+    if len(set(names)) != len(names):
+        raise ValueError(f"{CATALOGUE_FILE}: a scene is listed twice: {names}")
+    return groups
 
 
 class UnknownSceneError(InvalidInputError):
@@ -64,18 +54,25 @@ class SceneSummary:
 
 def list_scenes() -> list[str]:
     """Every scene name, in catalogue order."""
-    return list(SCENE_BUILDERS)
+    return [name for group in SCENE_GROUPS for name in _catalogue()[group]]
+
+
+def scenes_in_group(group: str) -> tuple[str, ...]:
+    """The scenes of one catalogue group (``simulation`` or ``real_analogue``), in report order."""
+    if group not in SCENE_GROUPS:
+        raise InvalidInputError(f"unknown scene group {group!r}; known: {list(SCENE_GROUPS)}")
+    return _catalogue()[group]
 
 
 def _check_name(name: str) -> None:
-    if name not in SCENE_BUILDERS:
-        raise UnknownSceneError(f"unknown scene '{name}'; known scenes: {', '.join(SCENE_BUILDERS)}")
+    if name not in list_scenes():
+        raise UnknownSceneError(f"unknown scene '{name}'; known scenes: {', '.join(list_scenes())}")
 
 
 def build_scene(name: str, *, seed: int) -> SceneSpec:
     """Build scene ``name`` with layout seed ``seed``."""
     _check_name(name)
-    return SCENE_BUILDERS[name](seed=seed)
+    return build_scene_from_data(name, seed=seed)
 
 
 def scene_summary(name: str) -> SceneSummary:

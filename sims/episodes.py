@@ -28,7 +28,7 @@ from semexp_bt.core.scene import SceneSpec
 from semexp_bt.core.types import InvalidInputError, Pose2D
 from sims.geodesic import GeodesicOracle
 from sims.robot_footprint import START_CLEARANCE_M
-from sims.scenes._placement import DEFAULT_MIN_GEODESIC_M, GOAL_SUCCESS_RADIUS_M
+from sims.scenes.placement import DEFAULT_MIN_GEODESIC_M, GOAL_SUCCESS_RADIUS_M
 
 __all__ = [
     "GOAL_SUCCESS_RADIUS_M",

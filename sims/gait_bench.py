@@ -14,7 +14,6 @@ Every figure runs on the nominal Go1 (no domain randomisation, no observation no
 
 from __future__ import annotations
 
-import json
 import math
 import time
 from pathlib import Path
@@ -32,6 +31,7 @@ from robots.gait_policy import (
     load_policy,
     ramp_command,
 )
+from semexp_bt.core import durable
 from semexp_bt.core.types import FloatArray
 from sims.gait_env import GaitEnv, GaitEnvConfig, NoiseConfig, RandomizationConfig
 
@@ -326,6 +326,5 @@ def format_table(result: dict[str, Any]) -> str:
 
 
 def write_json(result: dict[str, Any], path: Path) -> None:
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(result, indent=2) + "\n")
+    """Write the benchmark's figures to ``path`` as JSON, whole or not at all."""
+    durable.write_json(path, result, indent=2)

@@ -35,6 +35,7 @@ from typing import Any
 
 import numpy as np
 
+from semexp_bt.core.geometry import wrap_angle
 from semexp_bt.core.scene import SceneObject, SceneSpec
 from semexp_bt.core.types import BACKGROUND_OBJECT_ID, CameraIntrinsics, Observation, Pose2D
 from sims.label_confusions import normalise_label
@@ -190,7 +191,7 @@ def score_view(
         )
 
     for profile in ("detector", "detector_yolo_world"):
-        out = emulate(observation, scene, target_label=target, rng=rng, noise=noise, detector_profile=profile)  # type: ignore[arg-type]
+        out = emulate(observation, scene, target_label=target, rng=rng, noise=noise, detector_profile=profile)
         if out.detections:
             top = max(out.detections, key=lambda d: d.confidence)
             report.add(
@@ -402,8 +403,8 @@ def rendered_views(
     scene bounds, facing it with up to 25 degrees of yaw error; the frame is kept once the subject
     shows at least ``min_pixels`` pixels (up to ``max_tries`` poses per view, else the view is skipped).
     """
-    from robots.mujoco_backend import MujocoRobot  # noqa: PLC0415 - heavy, optional
-    from sims.catalogue import build_scene  # noqa: PLC0415
+    from robots.mujoco_backend import MujocoRobot
+    from sims.catalogue import build_scene
 
     rng = np.random.default_rng(seed)
     for s_index, name in enumerate(scene_names):
@@ -429,7 +430,7 @@ def rendered_views(
                 if any(_footprint_distance_m(o, x, y) < ROBOT_CLEARANCE_M for o in obstacles):
                     continue
                 yaw = bearing + math.pi + float(rng.uniform(-1.0, 1.0)) * math.radians(25.0)
-                pose = Pose2D(x, y, math.atan2(math.sin(yaw), math.cos(yaw)))
+                pose = Pose2D(x, y, wrap_angle(yaw))
                 robot = _place_robot(MujocoRobot, robot, scene, pose, seed + view_index * max_tries + attempt)
                 obs = robot.observe()
                 if shows(obs, subject.object_id, min_pixels=min_pixels):
@@ -504,7 +505,7 @@ def run(args: argparse.Namespace) -> int:
         views = random_synthetic_views(np.random.default_rng(args.seed), args.views)
         kind = "synthetic"
     else:
-        from sims import catalogue  # noqa: PLC0415
+        from sims import catalogue
 
         names = catalogue.list_scenes() if args.scenes == "all" else [n for n in args.scenes.split(",") if n]
         views = rendered_views(names, views_per_scene=args.views, seed=args.seed)

@@ -41,6 +41,7 @@ import numpy as np
 import numpy.typing as npt
 import yaml
 
+from semexp_bt.core.bounds import field_range
 from semexp_bt.core.config import ConfigError, config_from_dict
 from semexp_bt.core.scene import SceneObject, SceneSpec
 from semexp_bt.core.types import (
@@ -71,10 +72,6 @@ DetectorProfileName = Literal["detector", "detector_yolo_world"]
 _MEAN_EPS = 1e-3
 
 
-def _range(lo: float, hi: float, *, lo_open: bool = False, hi_open: bool = False) -> dict[str, Any]:
-    return {"range": (lo, hi, lo_open, hi_open)}
-
-
 # --------------------------------------------------------------------------------------------------
 # Configuration (loaded from YAML with semexp_bt.core.config.config_from_dict: unknown keys, wrong types and
 # out-of-range values raise ConfigError naming the file and the dotted key)
@@ -85,9 +82,9 @@ def _range(lo: float, hi: float, *, lo_open: bool = False, hi_open: bool = False
 class LatencyConfig:
     """Simulated model latency on the backend clock."""
 
-    mean_s: float = field(default=1.2, metadata=_range(0.0, 600.0))
+    mean_s: float = field(default=1.2, metadata=field_range(0.0, 600.0))
     """Mean latency (s)."""
-    jitter_s: float = field(default=0.1, metadata=_range(0.0, 600.0))
+    jitter_s: float = field(default=0.1, metadata=field_range(0.0, 600.0))
     """Half-width of the uniform jitter around the mean (s); must not exceed ``mean_s``."""
 
 
@@ -95,23 +92,23 @@ class LatencyConfig:
 class VisibilityConfig:
     """How the view of one object degrades a model's chance to see it (the quality factors)."""
 
-    min_pixels: int = field(default=30, metadata=_range(1, 10_000_000))
+    min_pixels: int = field(default=30, metadata=field_range(1, 10_000_000))
     """Objects with fewer visible pixels are never reported."""
-    distance_ref_m: float = field(default=2.5, metadata=_range(0.0, 100.0))
+    distance_ref_m: float = field(default=2.5, metadata=field_range(0.0, 100.0))
     """No distance penalty up to this depth (m)."""
-    distance_scale_m: float = field(default=8.0, metadata=_range(0.0, 1000.0, lo_open=True))
+    distance_scale_m: float = field(default=8.0, metadata=field_range(0.0, 1000.0, low_open=True))
     """Beyond ``distance_ref_m`` the distance factor decays as exp(-(d - ref) / scale)."""
-    area_half_px: float = field(default=40.0, metadata=_range(0.0, 1e9))
+    area_half_px: float = field(default=40.0, metadata=field_range(0.0, 1e9))
     """Area factor n / (n + area_half_px) of n visible pixels: 0.5 at this many pixels."""
-    occlusion_exponent: float = field(default=0.7, metadata=_range(0.0, 10.0))
+    occlusion_exponent: float = field(default=0.7, metadata=field_range(0.0, 10.0))
     """Occlusion factor = visible_fraction ** occlusion_exponent."""
-    truncation_weight: float = field(default=0.5, metadata=_range(0.0, 1.0))
+    truncation_weight: float = field(default=0.5, metadata=field_range(0.0, 1.0))
     """Truncation factor = 1 - weight * truncation (truncation in [0, 1] from the mask at the border)."""
-    off_axis_weight: float = field(default=0.15, metadata=_range(0.0, 1.0))
+    off_axis_weight: float = field(default=0.15, metadata=field_range(0.0, 1.0))
     """Off-axis factor = 1 - weight * (bearing of the mask centroid / half horizontal FoV)."""
-    exposure_s: float = field(default=0.02, metadata=_range(0.0, 1.0))
+    exposure_s: float = field(default=0.02, metadata=field_range(0.0, 1.0))
     """Exposure time that turns base motion into blur (px = exposure * (fx * |omega| + fx * |v| / d))."""
-    blur_scale_px: float = field(default=10.0, metadata=_range(0.0, 1e6, lo_open=True))
+    blur_scale_px: float = field(default=10.0, metadata=field_range(0.0, 1e6, low_open=True))
     """Blur factor = exp(-blur_px / blur_scale_px)."""
 
 
@@ -121,27 +118,27 @@ class DetectorProfile:
 
     visibility: VisibilityConfig = field(default_factory=VisibilityConfig)
     latency: LatencyConfig = field(default_factory=LatencyConfig)
-    max_detection_probability: float = field(default=0.95, metadata=_range(0.0, 1.0))
+    max_detection_probability: float = field(default=0.95, metadata=field_range(0.0, 1.0))
     """Detection probability of a prompt-matching object seen at quality 1."""
-    quality_exponent: float = field(default=0.5, metadata=_range(0.0, 10.0))
+    quality_exponent: float = field(default=0.5, metadata=field_range(0.0, 10.0))
     """Report probabilities scale with q ** quality_exponent (below 1: a fair view is usually enough)."""
-    confidence_floor: float = field(default=0.25, metadata=_range(0.0, 1.0))
+    confidence_floor: float = field(default=0.25, metadata=field_range(0.0, 1.0))
     """Mean confidence of a true detection at quality 0."""
-    confidence_ceiling: float = field(default=0.75, metadata=_range(0.0, 1.0))
+    confidence_ceiling: float = field(default=0.75, metadata=field_range(0.0, 1.0))
     """Mean confidence of a true detection at quality 1."""
-    confidence_concentration: float = field(default=12.0, metadata=_range(0.0, 1e6, lo_open=True))
+    confidence_concentration: float = field(default=12.0, metadata=field_range(0.0, 1e6, low_open=True))
     """Beta concentration kappa = a + b: larger means confidences closer to their mean."""
-    confusion_rate: float = field(default=0.18, metadata=_range(0.0, 1.0))
+    confusion_rate: float = field(default=0.18, metadata=field_range(0.0, 1.0))
     """Probability (times q ** quality_exponent) that a visible object marked close to the prompt is boxed
     with the prompt's label."""
-    confusion_confidence_scale: float = field(default=0.8, metadata=_range(0.0, 1.0))
+    confusion_confidence_scale: float = field(default=0.8, metadata=field_range(0.0, 1.0))
     """A confusion's mean confidence is this fraction of a true detection's at the same quality."""
-    false_positive_rate: float = field(default=0.03, metadata=_range(0.0, 1.0))
+    false_positive_rate: float = field(default=0.03, metadata=field_range(0.0, 1.0))
     """Probability (times q ** quality_exponent) that any other visible non-wall object is boxed with the
     prompt's label."""
-    false_positive_confidence_mean: float = field(default=0.3, metadata=_range(0.0, 1.0))
+    false_positive_confidence_mean: float = field(default=0.3, metadata=field_range(0.0, 1.0))
     """Mean confidence of such a false positive."""
-    box_shrink_frac: float = field(default=0.08, metadata=_range(0.0, 0.5))
+    box_shrink_frac: float = field(default=0.08, metadata=field_range(0.0, 0.5))
     """Each box edge moves inwards by U(0, this) times the mask's bounding-box side."""
 
 
@@ -149,19 +146,19 @@ class DetectorProfile:
 class DirectionConfig:
     """Open-space 'direction' proposals of the VLM (columns where the camera sees far and clear)."""
 
-    open_depth_m: float = field(default=2.0, metadata=_range(0.0, 1000.0, lo_open=True))
+    open_depth_m: float = field(default=2.0, metadata=field_range(0.0, 1000.0, low_open=True))
     """A column is open when no obstacle pixel in the band is nearer than this (m)."""
-    band_top_frac: float = field(default=0.2, metadata=_range(0.0, 1.0))
+    band_top_frac: float = field(default=0.2, metadata=field_range(0.0, 1.0))
     """Top of the row band searched for obstacles, as a fraction of the image height."""
-    band_bottom_frac: float = field(default=0.95, metadata=_range(0.0, 1.0))
+    band_bottom_frac: float = field(default=0.95, metadata=field_range(0.0, 1.0))
     """Bottom of that band."""
-    min_width_deg: float = field(default=6.0, metadata=_range(0.0, 180.0))
+    min_width_deg: float = field(default=6.0, metadata=field_range(0.0, 180.0))
     """Open runs narrower than this horizontal angle are ignored."""
-    doorway_max_deg: float = field(default=20.0, metadata=_range(0.0, 180.0))
+    doorway_max_deg: float = field(default=20.0, metadata=field_range(0.0, 180.0))
     """An open run bounded by obstacles on both sides and narrower than this is called a doorway."""
-    report_probability: float = field(default=0.85, metadata=_range(0.0, 1.0))
+    report_probability: float = field(default=0.85, metadata=field_range(0.0, 1.0))
     """Probability that the VLM mentions each open direction it could see."""
-    max_directions: int = field(default=3, metadata=_range(0, 100))
+    max_directions: int = field(default=3, metadata=field_range(0, 100))
     """At most this many direction proposals per view (widest first)."""
 
 
@@ -169,15 +166,15 @@ class DirectionConfig:
 class SceneConfidenceConfig:
     """The VLM's scene confidence C_s ~ Beta around a mean that falls with clutter and blur."""
 
-    max_mean: float = field(default=0.8, metadata=_range(0.0, 1.0))
+    max_mean: float = field(default=0.8, metadata=field_range(0.0, 1.0))
     """Mean C_s of a clear, static view."""
-    clutter_weight: float = field(default=0.3, metadata=_range(0.0, 1.0))
+    clutter_weight: float = field(default=0.3, metadata=field_range(0.0, 1.0))
     """Mean drop at full clutter."""
-    clutter_objects_ref: int = field(default=8, metadata=_range(1, 10_000))
+    clutter_objects_ref: int = field(default=8, metadata=field_range(1, 10_000))
     """Number of visible non-wall objects that counts as full clutter."""
-    blur_weight: float = field(default=0.3, metadata=_range(0.0, 1.0))
+    blur_weight: float = field(default=0.3, metadata=field_range(0.0, 1.0))
     """Mean drop at full blur (blur factor 0)."""
-    concentration: float = field(default=20.0, metadata=_range(0.0, 1e6, lo_open=True))
+    concentration: float = field(default=20.0, metadata=field_range(0.0, 1e6, low_open=True))
     """Beta concentration of C_s."""
 
 
@@ -191,28 +188,28 @@ class VlmProfile:
         )
     )
     latency: LatencyConfig = field(default_factory=lambda: LatencyConfig(mean_s=2.5, jitter_s=0.25))
-    max_mention_probability: float = field(default=0.95, metadata=_range(0.0, 1.0))
+    max_mention_probability: float = field(default=0.95, metadata=field_range(0.0, 1.0))
     """Probability (times quality ** quality_exponent) that a visible matching or close object is proposed."""
-    quality_exponent: float = field(default=0.5, metadata=_range(0.0, 10.0))
+    quality_exponent: float = field(default=0.5, metadata=field_range(0.0, 10.0))
     """Mention probabilities scale with q ** quality_exponent."""
-    mention_other_rate: float = field(default=0.15, metadata=_range(0.0, 1.0))
+    mention_other_rate: float = field(default=0.15, metadata=field_range(0.0, 1.0))
     """Probability (times q ** quality_exponent) that another visible non-wall object is proposed under its
     own label."""
-    confusion_rate: float = field(default=0.16, metadata=_range(0.0, 1.0))
+    confusion_rate: float = field(default=0.16, metadata=field_range(0.0, 1.0))
     """Probability that a proposed object marked close to the target is labelled as the target."""
-    swap_rate: float = field(default=0.05, metadata=_range(0.0, 1.0))
+    swap_rate: float = field(default=0.05, metadata=field_range(0.0, 1.0))
     """Probability that a proposed target object is labelled with one of its close labels instead."""
-    hallucination_rate: float = field(default=0.03, metadata=_range(0.0, 1.0))
+    hallucination_rate: float = field(default=0.03, metadata=field_range(0.0, 1.0))
     """Probability per view of a target proposal on an in-view pixel that is not the target."""
-    point_jitter_frac: float = field(default=0.1, metadata=_range(0.0, 10.0))
+    point_jitter_frac: float = field(default=0.1, metadata=field_range(0.0, 10.0))
     """Std of the point jitter as a fraction of the visible mask's bounding-box width/height."""
     emit_regions: bool = True
     """Attach a coarse region (jittered mask bounding box) to object proposals."""
-    region_jitter_frac: float = field(default=0.2, metadata=_range(0.0, 10.0))
+    region_jitter_frac: float = field(default=0.2, metadata=field_range(0.0, 10.0))
     """Std of each region edge's jitter as a fraction of the box side."""
-    order_noise: float = field(default=0.25, metadata=_range(0.0, 100.0))
+    order_noise: float = field(default=0.25, metadata=field_range(0.0, 100.0))
     """Gumbel scale added to the quality when the VLM orders its object proposals."""
-    max_object_proposals: int = field(default=5, metadata=_range(0, 1000))
+    max_object_proposals: int = field(default=5, metadata=field_range(0, 1000))
     """At most this many object proposals per view."""
     directions: DirectionConfig = field(default_factory=DirectionConfig)
     scene_confidence: SceneConfidenceConfig = field(default_factory=SceneConfidenceConfig)

@@ -17,6 +17,7 @@ import yaml
 from robots.null_robot import NullRobot
 from semexp_bt.app.configuration import read_config_file, resolve_config
 from semexp_bt.app.runner import MissionComponents, run_mission
+from semexp_bt.core.bounds import Interval, field_interval
 from semexp_bt.core.config import ConfigError, SemExpConfig
 from semexp_bt.core.relevance import CachedRelevance, LexicalRelevance
 from semexp_bt.core.types import Pose2D, SceneEvidence
@@ -36,10 +37,10 @@ def _changed_value(value: Any, field: dataclasses.Field[Any]) -> Any:
     if isinstance(value, int):
         return value + 1
     if isinstance(value, float):
-        lo, hi, lo_open, hi_open = field.metadata.get("range", (-math.inf, math.inf, False, False))
+        interval = field_interval(field) or Interval()
         candidate = value * 0.9 if value > 0 else value + 1e-3
-        if candidate <= lo if lo_open else candidate < lo:
-            candidate = (value + hi) / 2
+        if not interval.contains(candidate):
+            candidate = (value + (math.inf if interval.high is None else interval.high)) / 2
         return candidate
     if isinstance(value, str):  # a Literal: the other allowed value
         return {"graph": "euclidean", "euclidean": "graph"}[value]

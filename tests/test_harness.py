@@ -20,22 +20,12 @@ from typing import Any
 
 import pytest
 
-from semexp_bt.bench import harness
-from semexp_bt.bench.harness import (
-    EPISODES_FILE,
-    STATUS_ERROR,
-    STATUS_OK,
-    STATUS_TIMEOUT,
-    EpisodeTask,
-    HarnessError,
-    PaperProtocol,
-    SweepSpec,
-    flatten_record,
-    load_rows,
-    parse_seeds,
-    run_sweep,
-    to_episode_record,
-)
+from semexp_bt.bench import engine, executors, protocol, store
+from semexp_bt.bench.engine import SweepResult, run_sweep
+from semexp_bt.bench.protocol import PaperProtocol
+from semexp_bt.bench.rows import STATUS_ERROR, STATUS_OK, STATUS_TIMEOUT, flatten_record, to_episode_record
+from semexp_bt.bench.store import EPISODES_FILE, load_rows
+from semexp_bt.bench.sweep import EpisodeTask, HarnessError, SweepSpec, parse_seeds
 from semexp_bt.core.metrics import success
 
 #: Calls of the fake run function in this process (workers=0 runs inline).
@@ -112,7 +102,7 @@ def spec(**changes: Any) -> SweepSpec:
     return SweepSpec(**fields)
 
 
-def sweep(out: Path, run_fn: Any = fake_run, **kwargs: Any) -> harness.SweepResult:
+def sweep(out: Path, run_fn: Any = fake_run, **kwargs: Any) -> SweepResult:
     kwargs.setdefault("workers", 0)
     return run_sweep(kwargs.pop("spec", None) or spec(), out, run_fn=run_fn, progress=None, check_names=False,
                      **kwargs)  # fmt: skip
@@ -284,14 +274,34 @@ def test_trajectories_go_to_their_own_files(tmp_path: Path) -> None:
     assert all("trajectory_xy" not in r for r in rows)
 
 
-def test_a_torn_last_line_is_skipped_and_rerun(tmp_path: Path) -> None:
+def test_a_torn_last_line_is_skipped_and_rerun(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     sweep(tmp_path)
     path = tmp_path / EPISODES_FILE
     lines = path.read_text().splitlines()
     path.write_text("\n".join(lines[:-1]) + "\n" + lines[-1][: len(lines[-1]) // 2])
-    with open(os.devnull, "w") as quiet:
-        assert len(load_rows(tmp_path, stream=quiet)) == 7
+    assert len(load_rows(tmp_path, stream=sys.stderr)) == 7
+    assert f"{EPISODES_FILE}:8: torn last line skipped" in capsys.readouterr().err
+    # The resumed sweep cuts the fragment off before it appends: the new row is a line of its own.
     assert sweep(tmp_path).ran == 1
+    assert "cut off a torn last line" in capsys.readouterr().err
+    rewritten = path.read_text().splitlines()
+    assert rewritten[:7] == lines[:7] and len(rewritten) == 8
+    assert [json.loads(line)["key"] for line in rewritten] == [json.loads(line)["key"] for line in lines]
+
+
+def test_a_damaged_row_before_the_last_is_an_error_naming_the_line(tmp_path: Path) -> None:
+    sweep(tmp_path)
+    path = tmp_path / EPISODES_FILE
+    lines = path.read_text().splitlines()
+    lines[2] = lines[2][:20]
+    path.write_text("\n".join(lines) + "\n")
+    with pytest.raises(HarnessError, match=rf"{EPISODES_FILE}:3: not a JSON line"):
+        load_rows(tmp_path)
+    with pytest.raises(HarnessError, match=rf"{EPISODES_FILE}:3: not a JSON line"):
+        sweep(tmp_path)  # refused before anything runs, not silently rerun
+    path.write_text(path.read_text().replace(lines[2], '{"no key": 1}'))
+    with pytest.raises(HarnessError, match=rf"{EPISODES_FILE}:3: expected an episode row"):
+        load_rows(tmp_path)
 
 
 def interrupted_run(task: EpisodeTask) -> dict[str, Any]:
@@ -306,7 +316,7 @@ def test_every_invocation_is_logged_so_a_resumed_sweep_has_a_total_wall_time(tmp
         sweep(tmp_path, run_fn=interrupted_run, spec=spec(scenes=("alpha",), strategies=("ours",)))
     sweep(tmp_path)
     sweep(tmp_path)
-    log = harness.load_invocations(tmp_path)
+    log = store.load_invocations(tmp_path)
     print(json.dumps(log, indent=1))
     assert [(one["ran"], one["skipped"], one["completed"]) for one in log] == [(1, 0, False), (7, 1, True),
                                                                                 (0, 8, True)]  # fmt: skip
@@ -316,26 +326,39 @@ def test_every_invocation_is_logged_so_a_resumed_sweep_has_a_total_wall_time(tmp
 
 def test_a_corrupt_invocation_log_names_its_file_and_line(tmp_path: Path) -> None:
     sweep(tmp_path)
-    path = tmp_path / harness.INVOCATIONS_FILE
-    path.write_text(path.read_text() + '{"wall_s": "long"}\n')
+    path = tmp_path / store.INVOCATIONS_FILE
+    first = path.read_text()
+    path.write_text(first + '{"wall_s": "long"}\n')
     with pytest.raises(HarnessError, match=r"invocations\.jsonl:2: expected an object"):
-        harness.load_invocations(tmp_path)
-    path.write_text("not json\n")
-    with pytest.raises(HarnessError, match=r"invocations\.jsonl:1: not JSON"):
-        harness.load_invocations(tmp_path)
+        store.load_invocations(tmp_path)
+    path.write_text("not json\n" + first)
+    with pytest.raises(HarnessError, match=r"invocations\.jsonl:1: not a JSON line"):
+        store.load_invocations(tmp_path)
+
+
+def test_a_torn_last_invocation_line_is_skipped_and_the_next_one_starts_clean(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    sweep(tmp_path)
+    path = tmp_path / store.INVOCATIONS_FILE
+    path.write_text(path.read_text() + '{"started_unix_s": 17')  # killed while logging the second call
+    assert [one["ran"] for one in store.load_invocations(tmp_path, stream=sys.stderr)] == [8]
+    assert "invocations.jsonl:2: torn last line skipped" in capsys.readouterr().err
+    sweep(tmp_path)
+    assert [one["ran"] for one in store.load_invocations(tmp_path)] == [8, 0]
 
 
 def test_the_results_header_sums_the_invocations_and_survives_a_damaged_log(tmp_path: Path) -> None:
     from semexp_bt.cli import bench as bench_cli
 
-    path = tmp_path / harness.INVOCATIONS_FILE
+    path = tmp_path / store.INVOCATIONS_FILE
     path.write_text(
         '{"wall_s": 600.0, "ran": 3, "completed": false}\n{"wall_s": 300.0, "ran": 2, "completed": true}\n'
     )
     line = bench_cli._all_invocations(tmp_path)
     print(line)
     assert line.startswith("15.0 min in 2 invocation(s) (1 stopped) that ran 5 episodes")
-    path.write_text("{torn")
+    path.write_text('{torn\n{"wall_s": 300.0, "ran": 2, "completed": true}\n')
     with open(os.devnull, "w") as quiet, contextlib.redirect_stderr(quiet):
         damaged = bench_cli._all_invocations(tmp_path)
     assert damaged.startswith("unknown (") and "invocations.jsonl:1" in damaged
@@ -351,7 +374,7 @@ def test_sigterm_unwinds_a_cli_sweep_and_restores_the_handler(
         time.sleep(5.0)  # the handler raises before this returns
         raise AssertionError("SIGTERM did not interrupt the sweep")
 
-    monkeypatch.setattr(harness, "run_sweep", killed)
+    monkeypatch.setattr(engine, "run_sweep", killed)
     before = signal.getsignal(signal.SIGTERM)
     args = argparse.Namespace(out=tmp_path, workers=1, ray_address=None, retry_failed=False, quiet=True)
     with pytest.raises(SystemExit) as stopped:
@@ -372,12 +395,12 @@ def test_a_ray_address_where_no_head_answers_is_refused_not_waited_on() -> None:
         listener.bind(("127.0.0.1", 0))
         listener.listen(1)
         open_port = listener.getsockname()[1]
-        harness.require_ray_head_answers(f"127.0.0.1:{open_port}", timeout_s=2.0)  # something answers
+        executors.require_ray_head_answers(f"127.0.0.1:{open_port}", timeout_s=2.0)  # something answers
     with pytest.raises(HarnessError, match=f"127.0.0.1:{open_port}: no Ray head answers"):
-        harness.require_ray_head_answers(f"127.0.0.1:{open_port}", timeout_s=2.0)
+        executors.require_ray_head_answers(f"127.0.0.1:{open_port}", timeout_s=2.0)
     with pytest.raises(HarnessError, match="expected 'auto'"):
-        harness.require_ray_head_answers("my-cluster", timeout_s=2.0)
-    harness.require_ray_head_answers("auto")  # left to Ray
+        executors.require_ray_head_answers("my-cluster", timeout_s=2.0)
+    executors.require_ray_head_answers("auto")  # left to Ray
 
 
 def _ray_installed() -> bool:
@@ -403,7 +426,7 @@ def test_process_pool_records_errors_and_timeouts_and_finishes_the_rest(tmp_path
 def test_a_worker_stuck_in_native_code_is_killed_by_the_parent(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    monkeypatch.setattr(harness, "HARD_KILL_GRACE_S", 4.0)
+    monkeypatch.setattr(executors, "HARD_KILL_GRACE_S", 4.0)
     small = spec(scenes=("alpha",), seeds=(0, 1, 2), strategies=("ours",), timeout_s=0.5)
     started = time.monotonic()
     result = run_sweep(small, tmp_path, run_fn=stuck_run, workers=2, progress=None, check_names=False)
@@ -416,7 +439,7 @@ def test_a_worker_stuck_in_native_code_is_killed_by_the_parent(
 def test_a_worker_that_dies_is_an_error_row_after_retries(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    monkeypatch.setattr(harness, "MAX_WORKER_DEATHS", 2)
+    monkeypatch.setattr(executors, "MAX_WORKER_DEATHS", 2)
     small = spec(scenes=("alpha",), seeds=(0, 1, 2), strategies=("ours",))
     result = run_sweep(small, tmp_path, run_fn=dying_run, workers=1, progress=None, check_names=False)
     rows = {r["seed"]: r for r in load_rows(tmp_path)}
@@ -446,9 +469,9 @@ def test_bench_paper_smoke_end_to_end(tmp_path: Path) -> None:
     assert len(rows) == 4, [r.get("error") for r in rows]
     assert status == 0, [r.get("error") for r in rows if r["status"] != STATUS_OK]
     assert {(r["scene"], r["strategy"]) for r in rows} == {
-        (s, k) for s in harness.SMOKE_SCENES for k in harness.SMOKE_STRATEGIES
+        (s, k) for s in protocol.SMOKE_SCENES for k in protocol.SMOKE_STRATEGIES
     }
-    assert all(r["sim_time_s"] <= harness.SMOKE_MAX_SIM_S + 1.0 for r in rows)
+    assert all(r["sim_time_s"] <= protocol.SMOKE_MAX_SIM_S + 1.0 for r in rows)
     report = (out / "report.md").read_text()
     assert "## SR (success rate)" in report and "plots/bars_sr.png" in report
     results = (out / "results.md").read_text()
@@ -456,9 +479,9 @@ def test_bench_paper_smoke_end_to_end(tmp_path: Path) -> None:
     assert "invocation(s) (0 stopped) that ran 4 episodes" in results
     assert any(p.name.startswith("trajectory_") for p in (out / "plots").iterdir())
     # resumable: the same grid again runs nothing, and the report regenerates from the rows alone
-    again = run_sweep(harness.smoke_specs(relevance="lexical"), out, workers=2, progress=None)
+    again = run_sweep(protocol.smoke_specs(relevance="lexical"), out, workers=2, progress=None)
     assert (again.ran, again.skipped) == (0, 4)
-    assert [one["ran"] for one in harness.load_invocations(out)] == [4, 0]
+    assert [one["ran"] for one in store.load_invocations(out)] == [4, 0]
     assert main(["bench", "report", str(out), "--no-plots"]) == 0
 
 
@@ -466,7 +489,7 @@ def test_pool_workers_run_blas_on_one_thread() -> None:
     """Two workers on two cores must not each start a BLAS thread per core: the variables that size
     OpenBLAS's pool are read when numpy loads, which a spawned worker does before its initializer."""
     threadpoolctl = pytest.importorskip("threadpoolctl")
-    pool = harness._new_pool(1)
+    pool = executors.new_pool(1)
     try:
         pools = pool.submit(threadpoolctl.threadpool_info).result(timeout=120)
     finally:

@@ -23,7 +23,9 @@ from typing import Any
 
 import pytest
 
-from semexp_bt.bench.harness import STATUS_ERROR, STATUS_OK, load_rows, run_sweep
+from semexp_bt.bench.engine import run_sweep
+from semexp_bt.bench.rows import STATUS_ERROR, STATUS_OK
+from semexp_bt.bench.store import load_rows
 
 pytestmark = [
     pytest.mark.ray,

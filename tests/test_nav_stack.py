@@ -35,9 +35,9 @@ def costmap_at(
     robot = NullRobot(start_pose=pose, posts=tuple(posts))
     costmap = Costmap(config or CostmapConfig(), footprint=FOOTPRINT, origin_xy=(pose.x_m, pose.y_m))
     for k in range(turns):
-        robot._pose = Pose2D(pose.x_m, pose.y_m, pose.yaw_rad + k * math.tau / turns)  # noqa: SLF001
+        robot._pose = Pose2D(pose.x_m, pose.y_m, pose.yaw_rad + k * math.tau / turns)
         costmap.integrate(robot.observe_depth(pixel_grids=[costmap.sampled_pixels]))
-    robot._pose = pose  # noqa: SLF001
+    robot._pose = pose
     return costmap, robot
 
 
@@ -119,7 +119,7 @@ def test_the_grid_grows_with_what_is_seen_and_stops_at_its_bound() -> None:
     robot = NullRobot(start_pose=Pose2D(0.0, 0.0, 0.0))
     first = costmap.shape
     for x in np.arange(0.0, 20.0, 2.0):
-        robot._pose = Pose2D(float(x), 0.0, 0.0)  # noqa: SLF001
+        robot._pose = Pose2D(float(x), 0.0, 0.0)
         costmap.integrate(robot.observe_depth(pixel_grids=[costmap.sampled_pixels]))
     rows, cols = costmap.shape
     assert cols > first[1] and cols * costmap.resolution_m <= 8.0 + 1e-9

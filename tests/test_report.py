@@ -8,19 +8,19 @@ from typing import Any
 
 import pytest
 
-from semexp_bt.bench.harness import EPISODES_FILE, STATUS_ERROR, STATUS_OK
-from semexp_bt.bench.report import (
+from semexp_bt.bench.markdown import cell_text, metric_table
+from semexp_bt.bench.paper_results import write_paper_results
+from semexp_bt.bench.report import write_report
+from semexp_bt.bench.rows import STATUS_ERROR, STATUS_OK
+from semexp_bt.bench.stats import (
     ALL_SCENES,
     cell_summaries,
-    cell_text,
     intervals_disjoint,
     latency_table,
     matched_rows,
-    metric_table,
     summarize_rows,
-    write_paper_results,
-    write_report,
 )
+from semexp_bt.bench.store import EPISODES_FILE
 from semexp_bt.core.metrics import wilson_interval
 
 

@@ -17,8 +17,8 @@ from semexp_bt.core.types import InvalidInputError
 from sims.catalogue import UnknownSceneError, build_scene, list_scenes, scene_summary
 from sims.geodesic import GeodesicOracle
 from sims.occupancy import GridGeometry, rasterise_object
-from sims.scenes import _placement
-from sims.scenes._placement import GOAL_SUCCESS_RADIUS_M, SceneDataError, load_scene_data
+from sims.scenes import placement
+from sims.scenes.placement import GOAL_SUCCESS_RADIUS_M, SceneDataError, load_scene_data
 
 SEEDS = range(20)
 
@@ -127,8 +127,8 @@ def test_malformed_scene_data_names_the_file_and_key(tmp_path: Path, monkeypatch
     data["objects"][2]["slot"] = "nowhere"
     del data["kinds"]["desk"]
     (tmp_path / "broken2.yaml").write_text(json.dumps(data))
-    monkeypatch.setattr(_placement, "DATA_DIR", tmp_path)
-    _placement.load_scene_data.cache_clear()
+    monkeypatch.setattr(placement, "DATA_DIR", tmp_path)
+    placement.load_scene_data.cache_clear()
     try:
         with pytest.raises(SceneDataError, match=r"broken\.yaml: kinds\.desk: missing key 'rgba'"):
             load_scene_data("broken")
@@ -139,7 +139,7 @@ def test_malformed_scene_data_names_the_file_and_key(tmp_path: Path, monkeypatch
         with pytest.raises(SceneDataError, match="not found"):
             load_scene_data("absent")
     finally:
-        _placement.load_scene_data.cache_clear()
+        placement.load_scene_data.cache_clear()
 
 
 def test_scene_list_prints_every_scene(capsys: pytest.CaptureFixture[str]) -> None:

@@ -1,14 +1,17 @@
 """Generate the node reference (``docs/node_reference.md``) from the registry's declarations.
 
 Regenerate after adding or changing a behaviour: ``semexp-bt tree docs --out docs/node_reference.md``;
-``tests/test_tree_loader.py`` fails when the committed file is out of date.
+``tests/test_tree_loader.py`` fails when the committed file is out of date. Its blackboard table joins
+the schema (key, type, description) with the writers and readers the node types declare.
 """
 
 from __future__ import annotations
 
 import re
+from collections.abc import Iterable, Mapping
 
-from trees.registry import NodeRegistry, NodeSpec
+from blackboard.schema import SCHEMA
+from trees.registry import NodeRegistry, NodeSpec, key_uses
 
 _SECTIONS: tuple[tuple[str, str, str], ...] = (
     ("composite", "Composites", "Take one or more children (`children:` with at least one node)."),
@@ -51,8 +54,41 @@ def _node_section(spec: NodeSpec) -> list[str]:
     return lines
 
 
-def node_reference_markdown(registry: NodeRegistry) -> str:
-    """The node reference as markdown: one section per node type, grouped and sorted by name."""
+def _type_names(types: tuple[type, ...]) -> str:
+    if object in types:
+        return "any"
+    return " \\| ".join("None" if t is type(None) else t.__name__ for t in types)
+
+
+def _blackboard_section(registry: NodeRegistry, other_writers: Mapping[str, Iterable[str]]) -> list[str]:
+    uses = key_uses(registry, other_writers=other_writers)
+    lines = [
+        "## Blackboard keys",
+        "",
+        "Every key of `blackboard/schema.py`, with the node types that write and read it (their declared",
+        "`READS` / `WRITES`) and `runner` for what the mission runner writes before the first tick.",
+        "",
+        "| key | type | written by | read by | description |",
+        "| --- | --- | --- | --- | --- |",
+    ]
+    for key, spec in SCHEMA.items():
+        use = uses.get(key)
+        writers = ", ".join(use.writers) if use and use.writers else "**nobody**"
+        readers = ", ".join(use.readers) if use and use.readers else "-"
+        lines.append(f"| `{key}` | {_type_names(spec.types)} | {writers} | {readers} | {_cell(spec.doc)} |")
+    return [*lines, ""]
+
+
+def node_reference_markdown(
+    registry: NodeRegistry, *, other_writers: Mapping[str, Iterable[str]] | None = None
+) -> str:
+    """The node reference as markdown: one section per node type, grouped and sorted by name, then the
+    blackboard keys with their writers and readers.
+
+    Args:
+        registry: the node types.
+        other_writers: writers that are not node types, with their keys (see :func:`trees.registry.key_uses`).
+    """
     lines = [
         "# Node reference",
         "",
@@ -73,4 +109,5 @@ def node_reference_markdown(registry: NodeRegistry) -> str:
         lines.append("")
         for spec in specs:
             lines += _node_section(spec)
+    lines += _blackboard_section(registry, other_writers or {})
     return "\n".join(lines).rstrip("\n") + "\n"

@@ -6,9 +6,11 @@ type is a :class:`NodeSpec` here: its factory, its children arity and its parame
 decorators and a few test behaviours, plus the product's behaviours listed in ONE table,
 :func:`product_behaviours` below: that is where a new behaviour gets its row.
 
-A behaviour class declares ``PARAMS`` (and optionally ``BLACKBOARD_KEYS``) as class attributes;
+A behaviour class declares its parameters and blackboard keys (``PARAMS`` and ``BLACKBOARD_KEYS``, which
+``behaviours.base.SemExpBehaviour`` derives from its ``param()`` attributes and ``READS`` / ``WRITES``);
 :func:`behaviour_spec` turns the class into a :class:`NodeSpec`, so the loader's validation and the
-generated ``docs/node_reference.md`` come from the same declaration.
+generated ``docs/node_reference.md`` come from the same declaration. :func:`key_uses` turns the
+registry's declared keys into who writes and who reads each blackboard key.
 """
 
 from __future__ import annotations
@@ -31,12 +33,14 @@ __all__ = [
     "Arity",
     "BlackboardKey",
     "BuildContext",
+    "KeyUse",
     "NodeFactory",
     "NodeRegistry",
     "NodeSpec",
     "ParamSpec",
     "behaviour_spec",
     "default_registry",
+    "key_uses",
     "product_behaviours",
 ]
 
@@ -140,10 +144,6 @@ class NodeRegistry:
     def __len__(self) -> int:
         return len(self._specs)
 
-    def type_names(self) -> list[str]:
-        """All type names, sorted."""
-        return sorted(self._specs)
-
     def suggest(self, type_name: str) -> str | None:
         """The registered type closest to a misspelt one (case-insensitive first), or ``None``."""
         return did_you_mean(type_name, self._specs)
@@ -157,6 +157,47 @@ def did_you_mean(word: str, candidates: Iterable[str]) -> str | None:
             return option
     matches = difflib.get_close_matches(word, options, n=1, cutoff=0.6)
     return matches[0] if matches else None
+
+
+@dataclass(frozen=True)
+class KeyUse:
+    """Who uses one blackboard key, from the node types' declared keys.
+
+    Attributes:
+        writers: node types (and other writers, e.g. ``runner``) that write the key, others first.
+        readers: node types that read it.
+    """
+
+    writers: tuple[str, ...] = ()
+    readers: tuple[str, ...] = ()
+
+
+def key_uses(
+    registry: Iterable[NodeSpec], *, other_writers: Mapping[str, Iterable[str]] | None = None
+) -> dict[str, KeyUse]:
+    """Every blackboard key some node type declares (or another writer writes), with its writers and readers.
+
+    Args:
+        registry: the node types (their ``blackboard_keys``: ``write`` and ``read_write`` write the key,
+            ``read`` and ``read_write`` read it).
+        other_writers: writers that are not node types, with the keys they write (the mission runner's
+            initial board: ``{"runner": semexp_bt.app.executive.RUNNER_KEYS}``).
+    """
+    writers: dict[str, list[str]] = {}
+    readers: dict[str, list[str]] = {}
+    for writer, keys in (other_writers or {}).items():
+        for key in keys:
+            writers.setdefault(key, []).append(writer)
+    for spec in registry:
+        for key, declared in spec.blackboard_keys.items():
+            if declared.access != "read":
+                writers.setdefault(key, []).append(spec.type_name)
+            if declared.access != "write":
+                readers.setdefault(key, []).append(spec.type_name)
+    return {
+        key: KeyUse(writers=tuple(writers.get(key, ())), readers=tuple(readers.get(key, ())))
+        for key in dict.fromkeys((*writers, *readers))
+    }
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -187,9 +228,9 @@ def behaviour_spec(
     The factory calls ``cls(name=..., **params)`` and adds ``child=`` for a decorator, ``children=``
     for a composite, ``context=`` when the constructor has a ``context`` parameter and ``remap=`` when
     it has a ``remap`` parameter (otherwise a remap is applied to the behaviour's blackboard clients
-    after construction, see :func:`remap_clients`). Parameters default to the class attribute
-    ``PARAMS``; blackboard keys to ``BLACKBOARD_KEYS``, else to the ``READS`` and ``WRITES`` tuples of
-    :class:`behaviours.base.SemExpBehaviour` (documented from ``blackboard.schema.SCHEMA``).
+    after construction, see :func:`remap_clients`); a :class:`behaviours.base.SemExpBehaviour` always
+    gets both. Parameters default to the class attribute ``PARAMS`` and blackboard keys to
+    ``BLACKBOARD_KEYS`` (which a ``SemExpBehaviour`` derives from its declarations).
 
     Raises:
         ValueError: if the constructor does not accept a declared parameter (caught when the registry
@@ -202,15 +243,21 @@ def behaviour_spec(
         arity, group = "many", "composite"
     else:
         arity, group = "none", "behaviour"
+    from behaviours.base import SemExpBehaviour  # lazily, as product_behaviours: the module stays light
+
     declared = dict(getattr(cls, "PARAMS", {}) if params is None else params)
-    keys = dict(_declared_keys(cls) if blackboard_keys is None else blackboard_keys)
-    signature = inspect.signature(cls.__init__)
-    accepts_any = any(p.kind is inspect.Parameter.VAR_KEYWORD for p in signature.parameters.values())
-    missing = [p for p in declared if p not in signature.parameters and not accepts_any]
-    if missing:
-        raise ValueError(f"{cls.__qualname__}.__init__ does not accept declared parameters {missing}")
-    wants_context = "context" in signature.parameters
-    wants_remap = "remap" in signature.parameters
+    keys = dict(getattr(cls, "BLACKBOARD_KEYS", {}) if blackboard_keys is None else blackboard_keys)
+    if issubclass(cls, SemExpBehaviour):
+        # The base class takes every declared parameter, the build context and the remap.
+        wants_context = wants_remap = True
+    else:
+        signature = inspect.signature(cls.__init__)
+        accepts_any = any(p.kind is inspect.Parameter.VAR_KEYWORD for p in signature.parameters.values())
+        missing = [p for p in declared if p not in signature.parameters and not accepts_any]
+        if missing:
+            raise ValueError(f"{cls.__qualname__}.__init__ does not accept declared parameters {missing}")
+        wants_context = "context" in signature.parameters
+        wants_remap = "remap" in signature.parameters
 
     def factory(
         *,
@@ -245,30 +292,6 @@ def behaviour_spec(
         source=f"{cls.__module__}.{cls.__qualname__}",
         cross_check=cross_check,
     )
-
-
-def _declared_keys(cls: type) -> dict[str, BlackboardKey]:
-    explicit = getattr(cls, "BLACKBOARD_KEYS", None)
-    if explicit is not None:
-        return dict(explicit)
-    reads = tuple(getattr(cls, "READS", ()))
-    writes = tuple(getattr(cls, "WRITES", ()))
-    keys: dict[str, BlackboardKey] = {}
-    for key in (*reads, *writes):
-        access: Literal["read", "write", "read_write"] = (
-            "read_write" if key in reads and key in writes else "write" if key in writes else "read"
-        )
-        keys[key] = BlackboardKey(access, doc=_schema_doc(key))
-    return keys
-
-
-def _schema_doc(key: str) -> str:
-    try:
-        from blackboard.schema import SCHEMA
-    except ImportError:  # the schema is optional for the registry itself
-        return ""
-    spec = SCHEMA.get(key)
-    return spec.doc if spec is not None else ""
 
 
 def remap_clients(behaviour: py_trees.behaviour.Behaviour, remap: Mapping[str, str]) -> None:
@@ -626,9 +649,9 @@ def _py_trees_specs() -> list[NodeSpec]:
 
 
 # ---------------------------------------------------------------------------------------------------
-# THE PRODUCT'S BEHAVIOURS: one row per behaviour in behaviours/, kept in alphabetical order.
-# To add yours: give the class PARAMS (and BLACKBOARD_KEYS if it uses the board), import it below
-# and add `behaviour_spec(YourClass)`. Then regenerate the reference:
+# THE PRODUCT'S BEHAVIOURS: one row per behaviour in behaviours/, grouped by their part in the mission.
+# To add yours: subclass behaviours.base.SemExpBehaviour (parameters as `name: type = param(...)`, keys
+# as READS and WRITES), import it below and add `behaviour_spec(YourClass)`. Then regenerate the reference:
 #     semexp-bt tree docs --out docs/node_reference.md
 # ---------------------------------------------------------------------------------------------------
 

@@ -175,7 +175,7 @@ def trunk_boxes(
         if len(size) != 3 or len(pos) != 3:
             raise ValueError(f"{path}: geom '{name}' needs a 3-value size and pos")
         boxes[name] = (pos, size)
-    return boxes  # type: ignore[return-value]
+    return boxes
 
 
 @cache

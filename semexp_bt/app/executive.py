@@ -22,7 +22,7 @@ from semexp_bt.nav.costmap import Costmap, CostmapConfig
 from trees.loader import MissionDocument, load_mission
 from trees.registry import NodeRegistry, default_registry
 
-#: The keys the runner writes before the first tick (its rows in blackboard.schema name "runner").
+#: The keys the runner writes before the first tick (``runner`` among their writers in docs/node_reference.md).
 RUNNER_KEYS = (
     "instruction",
     "target_label",

@@ -101,7 +101,7 @@ def compare_sweeps(
     """Match two sweeps' rows by key and compare those finished in either, field by field.
 
     Args:
-        before: rows of the first sweep (``harness.load_rows``).
+        before: rows of the first sweep (``bench.store.load_rows``).
         after: rows of the second sweep.
     """
     first, second = _by_key(before), _by_key(after)

@@ -13,11 +13,9 @@ Each row reports the median and p95 over ``repeats`` timed calls (``time.perf_co
 
 from __future__ import annotations
 
-import json
 import platform
 import time
 from collections.abc import Callable
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -191,9 +189,4 @@ def format_table(result: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-def write_json(result: dict[str, Any], path: Path) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(result, indent=1))
-
-
-__all__ = ["run_core_bench", "format_table", "write_json"]
+__all__ = ["run_core_bench", "format_table"]

@@ -26,8 +26,18 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from semexp_bt.cli.arguments import (
+    non_negative_int,
+    output_file,
+    output_folder,
+    positive_int,
+    positive_seconds,
+    seed,
+)
+
 if TYPE_CHECKING:
-    from semexp_bt.bench.harness import SweepResult, SweepSpec
+    from semexp_bt.bench.engine import SweepResult
+    from semexp_bt.bench.sweep import SweepSpec
 
 #: The repository's docs folder (results.md and its figures go there).
 DOCS_DIR = Path(__file__).resolve().parents[2] / "docs"
@@ -35,7 +45,7 @@ DOCS_DIR = Path(__file__).resolve().parents[2] / "docs"
 
 def _add_sweep_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
-        "--out", type=Path, required=True, help="output folder (episodes.jsonl, report.md, plots/)"
+        "--out", type=output_folder, required=True, help="output folder (episodes.jsonl, report.md, plots/)"
     )
     parser.add_argument("--fidelity", choices=("kinematic", "dynamic"), default="kinematic")
     parser.add_argument(
@@ -47,7 +57,7 @@ def _add_sweep_options(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--workers",
-        type=int,
+        type=non_negative_int,
         default=max(1, (os.cpu_count() or 1)),
         help="local worker processes (default: CPU count; 0 runs in this process)",
     )
@@ -56,8 +66,12 @@ def _add_sweep_options(parser: argparse.ArgumentParser) -> None:
         default=None,
         help="run on a Ray cluster ('auto' or ray://host:10001) instead; needs 'pip install ray'",
     )
-    parser.add_argument("--timeout-s", type=float, default=None, help="wall-time limit per episode (s)")
-    parser.add_argument("--max-sim-s", type=float, default=None, help="cap on simulated time per episode (s)")
+    parser.add_argument(
+        "--timeout-s", type=positive_seconds, default=None, help="wall-time limit per episode (s)"
+    )
+    parser.add_argument(
+        "--max-sim-s", type=positive_seconds, default=None, help="cap on simulated time per episode (s)"
+    )
     parser.add_argument(
         "--mission", type=Path, default=None, help="mission tree (default: trees/object_search.yaml)"
     )
@@ -71,21 +85,21 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     sub = parser.add_subparsers(dest="kind", metavar="{core,tree,gait,missions,paper,report,compare}")
     sub.required = True
     core = sub.add_parser("core", help="latency of arbitration, memory update and decision")
-    core.add_argument("--json", type=Path, default=None, help="write the figures here as JSON")
-    core.add_argument("--seed", type=int, default=0)
+    core.add_argument("--json", type=output_file, default=None, help="write the figures here as JSON")
+    core.add_argument("--seed", type=seed, default=0)
     core.add_argument("--quick", action="store_true", help="fewer repeats, no 100k-node row (smoke test)")
 
     tree = sub.add_parser(
         "tree", help="per-tick wall time of the mission tree alone (no physics, no rendering)"
     )
-    tree.add_argument("--json", type=Path, default=None, help="write the figures here as JSON")
-    tree.add_argument("--ticks", type=int, default=20_000)
-    tree.add_argument("--seed", type=int, default=0)
+    tree.add_argument("--json", type=output_file, default=None, help="write the figures here as JSON")
+    tree.add_argument("--ticks", type=positive_int, default=20_000)
+    tree.add_argument("--seed", type=seed, default=0)
 
     gait = sub.add_parser("gait", help="RL gait vs reference trot: tracking, falls, pushes, CoT, inference")
-    gait.add_argument("--json", type=Path, default=None, help="write the figures here as JSON")
-    gait.add_argument("--seeds", type=int, default=10, help="seeds (10 simulated minutes each)")
-    gait.add_argument("--seed", type=int, default=0)
+    gait.add_argument("--json", type=output_file, default=None, help="write the figures here as JSON")
+    gait.add_argument("--seeds", type=positive_int, default=10, help="seeds (10 simulated minutes each)")
+    gait.add_argument("--seed", type=seed, default=0)
     gait.add_argument("--checkpoint", type=Path, default=None, help="default: robots/gait_checkpoints")
     gait.add_argument("--quick", action="store_true", help="2 seeds x 30 s, small grid (smoke test)")
 
@@ -99,7 +113,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     missions.add_argument(
         "--trajectories",
-        type=int,
+        type=non_negative_int,
         default=1,
         help="keep trajectory + memory of the first N seeds per (scene, strategy) for plots",
     )
@@ -107,19 +121,30 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     _add_sweep_options(missions)
 
     paper = sub.add_parser("paper", help="the paper's protocol: Tables I-V into DIR and docs/results.md")
-    paper.add_argument("--trials", type=int, default=20, help="trials per scene for Table III (paper: 20)")
     paper.add_argument(
-        "--trials-evidence", type=int, default=None, help="trials per sim scene, Table I baselines"
+        "--trials", type=positive_int, default=20, help="trials per scene for Table III (paper: 20)"
     )
     paper.add_argument(
-        "--trials-decision", type=int, default=None, help="trials per sim scene, Table II baselines"
+        "--trials-evidence",
+        type=non_negative_int,
+        default=None,
+        help="trials per sim scene, Table I baselines",
     )
     paper.add_argument(
-        "--trials-ablation", type=int, default=None, help="trials per sim scene, Table IV ablations"
+        "--trials-decision",
+        type=non_negative_int,
+        default=None,
+        help="trials per sim scene, Table II baselines",
+    )
+    paper.add_argument(
+        "--trials-ablation",
+        type=non_negative_int,
+        default=None,
+        help="trials per sim scene, Table IV ablations",
     )
     paper.add_argument(
         "--trials-reference",
-        type=int,
+        type=non_negative_int,
         default=None,
         help="trials per scene for the nearest-frontier and oracle references",
     )
@@ -145,27 +170,28 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     compare.add_argument("before", type=Path, help="the first sweep's output folder")
     compare.add_argument("after", type=Path, help="the second sweep's output folder")
-    compare.add_argument("--json", type=Path, default=None, help="write the comparison here as JSON")
+    compare.add_argument("--json", type=output_file, default=None, help="write the comparison here as JSON")
 
 
 def run(args: argparse.Namespace) -> int:
     if args.kind == "core":
-        from semexp_bt.bench.core import format_table, run_core_bench, write_json
+        from semexp_bt.bench.core import format_table, run_core_bench
+        from semexp_bt.core.durable import write_json
 
         result = run_core_bench(seed=args.seed, quick=args.quick)
         print(format_table(result))
         if args.json is not None:
-            write_json(result, args.json)
+            write_json(args.json, result)
         return 0 if all(result["floors_met"].values()) else 1
     if args.kind == "tree":
-        from semexp_bt.bench.core import write_json as write_tree_json
         from semexp_bt.bench.tree import format_table as tree_table
         from semexp_bt.bench.tree import run_tree_bench
+        from semexp_bt.core.durable import write_json as write_tree_json
 
         tree_result = run_tree_bench(ticks=args.ticks, seed=args.seed)
         print(tree_table(tree_result))
         if args.json is not None:
-            write_tree_json(tree_result, args.json)
+            write_tree_json(args.json, tree_result)
         return 0 if all(tree_result["floors_met"].values()) else 1
     if args.kind == "gait":
         from sims.gait_bench import format_table as gait_table
@@ -181,8 +207,14 @@ def run(args: argparse.Namespace) -> int:
             gait_json(gait_result, args.json)
         return 0 if all(gait_result["floors_met"].values()) else 1
 
-    from semexp_bt.bench.harness import HarnessError
+    from semexp_bt.bench.sweep import HarnessError
 
+    if (
+        args.kind in ("missions", "paper")
+        and args.mission is not None
+        and not _mission_is_valid(args.mission)
+    ):
+        return 2
     try:
         if args.kind == "missions":
             return _missions(args)
@@ -196,6 +228,16 @@ def run(args: argparse.Namespace) -> int:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     return 2
+
+
+def _mission_is_valid(path: Path) -> bool:
+    """Check ``--mission`` before any episode starts; print its problems (one line each) when it has any."""
+    from trees.loader import validate_mission
+
+    errors = validate_mission(path)
+    for error in errors:
+        print(error, file=sys.stderr)
+    return not errors
 
 
 def _spec_options(args: argparse.Namespace) -> dict[str, Any]:
@@ -215,7 +257,7 @@ def _split(text: str) -> tuple[str, ...]:
 
 
 def _sweep(args: argparse.Namespace, specs: list[SweepSpec]) -> SweepResult:
-    from semexp_bt.bench.harness import run_sweep
+    from semexp_bt.bench.engine import run_sweep
 
     def _stop(signum: int, frame: Any) -> None:
         raise SystemExit(128 + signum)
@@ -230,7 +272,7 @@ def _sweep(args: argparse.Namespace, specs: list[SweepSpec]) -> SweepResult:
 
 
 def _missions(args: argparse.Namespace) -> int:
-    from semexp_bt.bench.harness import SweepSpec, parse_seeds
+    from semexp_bt.bench.sweep import SweepSpec, parse_seeds
 
     spec = SweepSpec(scenes=_split(args.scenes), seeds=parse_seeds(args.seeds), strategies=_split(args.strategies),
                      trajectories_per_cell=args.trajectories, **_spec_options(args))  # fmt: skip
@@ -245,8 +287,10 @@ def _missions(args: argparse.Namespace) -> int:
 
 
 def _paper(args: argparse.Namespace) -> int:
-    from semexp_bt.bench.harness import PaperProtocol, load_rows, smoke_specs
-    from semexp_bt.bench.report import write_paper_results, write_report
+    from semexp_bt.bench.paper_results import write_paper_results
+    from semexp_bt.bench.protocol import PaperProtocol, smoke_specs
+    from semexp_bt.bench.report import write_report
+    from semexp_bt.bench.store import load_rows
 
     options = _spec_options(args)
     if args.smoke:
@@ -299,8 +343,9 @@ def _report(args: argparse.Namespace) -> int:
 
 def _compare(args: argparse.Namespace) -> int:
     from semexp_bt.bench.compare import compare_sweeps, format_comparison
-    from semexp_bt.bench.core import write_json
-    from semexp_bt.bench.harness import EPISODES_FILE, HarnessError, load_rows
+    from semexp_bt.bench.store import EPISODES_FILE, load_rows
+    from semexp_bt.bench.sweep import HarnessError
+    from semexp_bt.core.durable import write_json
 
     for folder in (args.before, args.after):
         if not (folder / EPISODES_FILE).is_file():
@@ -308,7 +353,7 @@ def _compare(args: argparse.Namespace) -> int:
     comparison = compare_sweeps(load_rows(args.before), load_rows(args.after))
     print(format_comparison(comparison, before=args.before, after=args.after))
     if args.json is not None:
-        write_json(comparison.to_dict(), args.json)
+        write_json(args.json, comparison.to_dict())
         print(f"json: {args.json}")
     if comparison.matched == 0:
         print("error: the two sweeps share no finished episode", file=sys.stderr)
@@ -318,7 +363,8 @@ def _compare(args: argparse.Namespace) -> int:
 
 def _all_invocations(out_dir: Path) -> str:
     """The sweep's total wall time, from ``DIR/invocations.jsonl`` (a resumed sweep has several lines)."""
-    from semexp_bt.bench.harness import INVOCATIONS_FILE, HarnessError, load_invocations
+    from semexp_bt.bench.store import INVOCATIONS_FILE, load_invocations
+    from semexp_bt.bench.sweep import HarnessError
 
     try:
         invocations = load_invocations(out_dir)

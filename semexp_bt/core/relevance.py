@@ -7,12 +7,11 @@ and each candidate node's label. This module defines the interface every scorer 
 - :class:`LexicalRelevance`: a deterministic token-overlap score with plural stripping, a small synonym
   table for the product's object vocabulary and a colour-conflict penalty;
 - :class:`CachedRelevance`: a per-(instruction, label) cache in front of any scorer (the decision asks
-  for the same pairs every tick);
-- :class:`LLMRelevance`: the paper's LLM adjudicator with a fixed prompt and temperature 0, written
-  against a :class:`TextCompleter` so that an HTTP client (OpenAI-compatible API) drops in later.
+  for the same pairs every tick).
 
-The sentence-embedding scorer (the product default) lives in ``semexp_bt.perception.embedding_relevance`` because
-it needs torch; this is a core module (standard library and numpy only).
+The sentence-embedding scorer (the product default) lives in ``semexp_bt.perception.embedding_relevance``
+because it needs torch, and the paper's LLM scorer in ``semexp_bt.perception.llm_relevance`` because it
+talks to a model server; this is a core module (standard library and numpy only).
 """
 
 from __future__ import annotations
@@ -28,10 +27,6 @@ import numpy.typing as npt
 from semexp_bt.core.types import InvalidInputError
 
 FloatArray = npt.NDArray[np.float64]
-
-
-class RelevanceReplyError(InvalidInputError):
-    """A language model's relevance reply could not be read as a number in [0, 1]."""
 
 
 @runtime_checkable
@@ -450,88 +445,3 @@ class CachedRelevance:
             self.misses += n_missing
             self.hits += len(labels) - n_missing
         return np.array(values, dtype=float)
-
-
-# --------------------------------------------------------------------------------------------------
-# LLM adjudicator (the paper's S_LLM), transport-agnostic
-# --------------------------------------------------------------------------------------------------
-
-
-class TextCompleter(Protocol):
-    """A text-completion backend: an OpenAI-compatible HTTP client, a local vLLM server, a test fake.
-
-    The HTTP implementation belongs to the perception adapters; it must raise on transport errors and
-    time out rather than hang.
-    """
-
-    def complete(self, *, prompt: str, temperature: float) -> str:
-        """Return the model's reply to ``prompt`` decoded at ``temperature``."""
-        ...
-
-
-#: The fixed prompt of the LLM adjudicator (the paper fixes the template and decodes at temperature 0).
-RELEVANCE_PROMPT_TEMPLATE = (
-    "You rank places for a robot searching for an object.\n"
-    'Instruction: "{instruction}"\n'
-    'Target object: "{target}"\n'
-    'Place label: "{label}"\n'
-    "How likely is it that going to this place finds the target object? "
-    "Answer with one number between 0 and 1 and nothing else."
-)
-
-_NUMBER = re.compile(r"[-+]?(?:\d+\.\d*|\.\d+|\d+)(?:[eE][-+]?\d+)?\s*%?")
-
-
-def parse_relevance_reply(reply: str) -> float:
-    """Read the first number of an LLM reply as a relevance in [0, 1].
-
-    A number followed by "%" is divided by 100. Anything else (no number, a number outside [0, 1])
-    is a :class:`RelevanceReplyError`; a garbled reply is never turned into a made-up score.
-    """
-    match = _NUMBER.search(reply)
-    if match is None:
-        raise RelevanceReplyError(f"LLM relevance reply has no number: {reply!r}")
-    text = match.group(0).strip()
-    value = float(text.rstrip("%").strip()) / (100.0 if text.endswith("%") else 1.0)
-    if not (np.isfinite(value) and 0.0 <= value <= 1.0):
-        raise RelevanceReplyError(f"LLM relevance reply {reply!r} gives {value!r}, outside [0, 1]")
-    return value
-
-
-class LLMRelevance:
-    """The paper's LLM adjudicator: one fixed prompt per (instruction, label), temperature 0.
-
-    Wrap it in :class:`CachedRelevance`: a remote call costs a second or more, and the same labels come
-    back every decision.
-
-    Args:
-        completer: the text backend (an HTTP client in production).
-        prompt_template: a ``str.format`` template with ``{instruction}``, ``{target}`` and ``{label}``.
-        temperature: decoding temperature; the paper uses 0 for reproducibility.
-    """
-
-    def __init__(
-        self,
-        completer: TextCompleter,
-        *,
-        prompt_template: str = RELEVANCE_PROMPT_TEMPLATE,
-        temperature: float = 0.0,
-    ) -> None:
-        self.completer = completer
-        self.prompt_template = prompt_template
-        self.temperature = temperature
-
-    def prompt(self, *, instruction: str, label: str) -> str:
-        """The exact prompt sent for one pair."""
-        return self.prompt_template.format(
-            instruction=instruction, target=instruction_target(instruction), label=label
-        )
-
-    def score(self, *, instruction: str, label: str) -> float:
-        reply = self.completer.complete(
-            prompt=self.prompt(instruction=instruction, label=label), temperature=self.temperature
-        )
-        return parse_relevance_reply(reply)
-
-    def scores(self, *, instruction: str, labels: Sequence[str]) -> FloatArray:
-        return np.array([self.score(instruction=instruction, label=lb) for lb in labels], dtype=float)

@@ -46,6 +46,8 @@ import numpy as np
 import numpy.typing as npt
 from scipy import ndimage
 
+from semexp_bt.core.bounds import field_range
+from semexp_bt.core.config import field_problem
 from semexp_bt.core.types import FloatArray, InvalidInputError, Observation, PixelGrid, Pose2D, require_finite
 from semexp_bt.nav.footprint import Footprint
 
@@ -62,39 +64,39 @@ NO_INFORMATION_COST = 255
 class CostmapConfig:
     """Every constant of the costmap, named once (units in the names)."""
 
-    resolution_m: float = 0.05
+    resolution_m: float = field(default=0.05, metadata=field_range(0.005, 1.0))
     """Cell side."""
-    tile_cells: int = 64
+    tile_cells: int = field(default=64, metadata=field_range(4, 4096))
     """The grid grows by whole tiles of this many cells per side (3.2 m at 5 cm)."""
-    max_extent_m: float = 120.0
+    max_extent_m: float = field(default=120.0, metadata=field_range(1.0, 2000.0))
     """Largest side of the grid: the memory bound."""
-    pixel_stride: int = 4
+    pixel_stride: int = field(default=4, metadata=field_range(1, 64))
     """Depth pixels read: every ``pixel_stride``-th row and column, half a stride in."""
-    max_range_m: float = 6.0
+    max_range_m: float = field(default=6.0, metadata=field_range(0.1, 100.0))
     """Returns farther than this (horizontally) neither mark nor clear: depth error grows with range."""
-    obstacle_min_z_m: float = 0.05
+    obstacle_min_z_m: float = field(default=0.05, metadata=field_range(0.0, 2.0))
     """Returns lower than this above the floor are floor; rays clear cells while they are this low."""
-    obstacle_max_z_m: float = 0.6
+    obstacle_max_z_m: float = field(default=0.6, metadata=field_range(0.01, 5.0))
     """Returns higher than this are overhangs the robot walks under."""
-    hit_log_odds: float = 1.0
+    hit_log_odds: float = field(default=1.0, metadata=field_range(0.0, 10.0, low_open=True))
     """Log-odds added to a cell marked in a frame."""
-    miss_log_odds: float = 0.4
+    miss_log_odds: float = field(default=0.4, metadata=field_range(0.0, 10.0))
     """Log-odds removed from a cell cleared in a frame."""
-    lethal_log_odds: float = 0.5
+    lethal_log_odds: float = field(default=0.5, metadata=field_range(-10.0, 10.0))
     """A cell is lethal above this log-odds (one marking frame suffices; about three clearing frames undo it)."""
-    min_log_odds: float = -2.0
+    min_log_odds: float = field(default=-2.0, metadata=field_range(-20.0, 0.0))
     """Log-odds floor (a cell seen free many times still flips after a few hits)."""
-    max_log_odds: float = 3.5
+    max_log_odds: float = field(default=3.5, metadata=field_range(0.0, 20.0))
     """Log-odds ceiling."""
-    clearance_m: float = 0.15
+    clearance_m: float = field(default=0.15, metadata=field_range(0.0, 1.0))
     """Padding of the footprint for inflation: OASR's 0.1 m clearance (a breach counts as a collision) plus
     what the controller's footprint check adds (the cell quantisation of the distance field and the disc
     cover's overshoot, about 5 cm), so that a passage the planner takes is one the controller can drive."""
-    inflation_radius_m: float = 1.0
+    inflation_radius_m: float = field(default=1.0, metadata=field_range(0.0, 10.0, low_open=True))
     """Distances (and costs) are kept out to this far from lethal cells."""
-    cost_scaling_factor: float = 3.0
+    cost_scaling_factor: float = field(default=3.0, metadata=field_range(0.0, 100.0))
     """Nav2's exponential decay rate of the inflation cost beyond the inscribed radius (1/m)."""
-    unseen_extension_m: float = 0.0
+    unseen_extension_m: float = field(default=0.0, metadata=field_range(0.0, 2.0))
     """Never-observed cells this close to a lethal cell count as obstacles in the distance field (an object
     seen from one side goes on behind what the camera saw). Off by default: at 0.3 m it removed the
     contacts of living_room seed 0 (the rear of the body swept the unseen far side of an armchair), but the
@@ -102,17 +104,15 @@ class CostmapConfig:
     (docs/planner.md)."""
 
     def __post_init__(self) -> None:
-        for name in ("resolution_m", "max_extent_m", "max_range_m", "inflation_radius_m"):
-            value = getattr(self, name)
-            require_finite(f"CostmapConfig.{name}", value)
-            if value <= 0.0:
-                raise InvalidInputError(f"CostmapConfig.{name} must be > 0, got {value}")
-        if self.tile_cells < 4 or self.pixel_stride < 1:
-            raise InvalidInputError("CostmapConfig.tile_cells must be >= 4 and pixel_stride >= 1")
+        problem = field_problem(self)
+        if problem is not None:
+            raise InvalidInputError(f"CostmapConfig.{problem}")
         if not self.obstacle_min_z_m < self.obstacle_max_z_m:
             raise InvalidInputError("CostmapConfig.obstacle_min_z_m must be below obstacle_max_z_m")
-        if self.hit_log_odds <= 0.0 or self.miss_log_odds < 0.0:
-            raise InvalidInputError("CostmapConfig.hit_log_odds must be > 0 and miss_log_odds >= 0")
+        if not self.min_log_odds < self.lethal_log_odds < self.max_log_odds:
+            raise InvalidInputError(
+                "CostmapConfig.lethal_log_odds must lie between min_log_odds and max_log_odds"
+            )
 
 
 @dataclass
@@ -164,7 +164,8 @@ class Costmap:
 
     @property
     def shape(self) -> tuple[int, int]:
-        return self.log_odds.shape  # type: ignore[return-value]
+        rows, cols = self.log_odds.shape
+        return int(rows), int(cols)
 
     @property
     def lower_left_xy(self) -> tuple[float, float]:
@@ -276,7 +277,7 @@ class Costmap:
         self._observed_pad = np.pad(np.asarray(value, dtype=bool), 1, constant_values=False)
 
     def cost(
-        self, distance_m: FloatArray | None = None, observed: npt.NDArray[np.bool_] | None = None
+        self, distance_m: npt.ArrayLike | None = None, observed: npt.NDArray[np.bool_] | None = None
     ) -> npt.NDArray[np.uint8]:
         """Nav2 costs (0-255) from a distance field (default: the whole grid's)."""
         d = np.asarray(self.distance_m if distance_m is None else distance_m, dtype=float)

@@ -43,57 +43,46 @@ import numpy.typing as npt
 from scipy import ndimage, sparse
 from scipy.sparse import csgraph
 
+from semexp_bt.core.bounds import field_range
+from semexp_bt.core.config import field_problem
+from semexp_bt.core.geometry import lattice_steps
 from semexp_bt.core.types import FloatArray, InvalidInputError, require_finite
 from semexp_bt.nav.costmap import MAX_NON_OBSTACLE_COST, Costmap
 
 PlanStatus = Literal["ok", "no_path", "start_blocked"]
-
-#: Lattice moves ``(d_row, d_col, cells crossed)``; the reverse moves come from the undirected graph.
-_MOVES: tuple[tuple[int, int, tuple[tuple[int, int], ...]], ...] = (
-    (0, 1, ()),
-    (1, 0, ()),
-    (1, 1, ((0, 1), (1, 0))),
-    (1, -1, ((0, -1), (1, 0))),
-    (1, 2, ((0, 1), (1, 1))),
-    (2, 1, ((1, 0), (1, 1))),
-    (1, -2, ((0, -1), (1, -1))),
-    (2, -1, ((1, 0), (1, -1))),
-)
 
 
 @dataclass(frozen=True)
 class GlobalPlannerConfig:
     """Every constant of the global planner, named once."""
 
-    cell_factor: int = 2
+    cell_factor: int = field(default=2, metadata=field_range(1, 16))
     """Planning cells are blocks of this many costmap cells per side."""
-    unknown_cost: float = 1.5
+    unknown_cost: float = field(default=1.5, metadata=field_range(0.0, 100.0, low_open=True))
     """Step cost multiplier through never-observed cells."""
-    cost_weight: float = 2.0
+    cost_weight: float = field(default=2.0, metadata=field_range(0.0, 100.0))
     """Extra step cost multiplier at the highest non-lethal inflation cost (252)."""
-    goal_tolerance_m: float = 0.8
+    goal_tolerance_m: float = field(default=0.8, metadata=field_range(0.0, 10.0, low_open=True))
     """Passable cells within this distance of the subgoal are goals."""
-    goal_gap_weight: float = 4.0
+    goal_gap_weight: float = field(default=4.0, metadata=field_range(0.0, 100.0))
     """Price (m of travel) per metre a goal cell lies from the subgoal."""
-    standoff_m: float = 0.7
+    standoff_m: float = field(default=0.7, metadata=field_range(0.0, 5.0))
     """A goal cell with less room than this to the nearest lethal cell pays for it: the robot stops about
     this far from an object it was sent to, which the camera then sees whole (closer, the detector's
     views of it are truncated and the confirmation vote fails: measured in laboratory seed 1000)."""
-    standoff_weight: float = 10.0
+    standoff_weight: float = field(default=10.0, metadata=field_range(0.0, 1000.0))
     """Price (m of travel) per metre of missing standoff."""
-    window_margin_m: float = 4.0
+    window_margin_m: float = field(default=4.0, metadata=field_range(0.0, 200.0, low_open=True))
     """The search box: robot and subgoal, grown by this much."""
-    wide_window_margin_m: float = 12.0
+    wide_window_margin_m: float = field(default=12.0, metadata=field_range(0.0, 200.0, low_open=True))
     """The second, wider box when nothing reaches within the first."""
-    start_escape_m: float = 0.6
+    start_escape_m: float = field(default=0.6, metadata=field_range(0.0, 5.0))
     """When the robot's own cell is not passable, the path starts at the nearest passable cell this close."""
 
     def __post_init__(self) -> None:
-        if self.cell_factor < 1:
-            raise InvalidInputError(f"GlobalPlannerConfig.cell_factor must be >= 1, got {self.cell_factor}")
-        for name in ("unknown_cost", "goal_tolerance_m", "window_margin_m", "wide_window_margin_m"):
-            if not getattr(self, name) > 0.0:
-                raise InvalidInputError(f"GlobalPlannerConfig.{name} must be > 0, got {getattr(self, name)}")
+        problem = field_problem(self)
+        if problem is not None:
+            raise InvalidInputError(f"GlobalPlannerConfig.{problem}")
 
 
 @dataclass
@@ -278,18 +267,9 @@ def _lattice_graph(
     one virtual node (index ``rows * cols``) joined to every cell with a finite price."""
     rows, cols = passable.shape
     index = np.arange(rows * cols).reshape(rows, cols)
-    padded = np.pad(passable, 2, constant_values=False)
-
-    def shifted(dr: int, dc: int) -> npt.NDArray[np.bool_]:
-        return padded[2 + dr : 2 + dr + rows, 2 + dc : 2 + dc + cols]
-
     padded_w = np.pad(weight, 2, constant_values=1.0)
     sources, targets, costs = [], [], []
-    for dr, dc, crossed in _MOVES:
-        ok = passable & shifted(dr, dc)
-        for cr, cc in crossed:
-            ok &= shifted(cr, cc)
-        r, c = np.nonzero(ok)
+    for dr, dc, r, c in lattice_steps(passable):
         sources.append(index[r, c])
         targets.append(index[r + dr, c + dc])
         w_other = padded_w[2 + r + dr, 2 + c + dc]

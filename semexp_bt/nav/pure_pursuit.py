@@ -30,6 +30,7 @@ import numpy as np
 from semexp_bt.core.types import Pose2D, Twist
 from semexp_bt.nav.controller import (
     ControlResult,
+    ControlStatus,
     MotionLimits,
     SafetyRules,
     admissible,
@@ -135,7 +136,12 @@ class RegulatedPurePursuit:
         )
 
     def _checked(
-        self, costmap: Costmap, pose: Pose2D, velocity: Twist, options: list[tuple[float, float]], status: str
+        self,
+        costmap: Costmap,
+        pose: Pose2D,
+        velocity: Twist,
+        options: list[tuple[float, float]],
+        status: ControlStatus,
     ) -> ControlResult:
         """The first admissible option, regulated by its clearance; ``blocked`` when none is."""
         cfg = self.config
@@ -147,7 +153,7 @@ class RegulatedPurePursuit:
         for k in range(len(options)):
             if ok[k]:
                 v, w = regulate(float(targets[k, 0]), float(targets[k, 1]), float(least[k]), rules=cfg.rules)
-                return ControlResult(Twist(linear_x_mps=v, angular_z_radps=w), status, float(least[k]), states[k],  # type: ignore[arg-type]
+                return ControlResult(Twist(linear_x_mps=v, angular_z_radps=w), status, float(least[k]), states[k],
                                      {"option": float(k)}, (len(options), int(ok.sum())))  # fmt: skip
         return ControlResult(Twist.zero(), "blocked", candidates=(len(options), 0))
 

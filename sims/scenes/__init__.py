@@ -1,1 +1,2 @@
-"""Procedural scene builders: one module per scene, data in ``data/<scene>.yaml``; see :mod:`sims.catalogue`."""
+"""The scenes as data: ``catalogue.yaml`` lists them, ``data/<scene>.yaml`` holds each layout, and
+:mod:`sims.scenes.placement` builds a :class:`~semexp_bt.core.scene.SceneSpec` from data and a seed."""

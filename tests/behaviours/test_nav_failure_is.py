@@ -1,25 +1,25 @@
-"""NavFailureIs ticked alone: a condition on nav_failure."""
+"""NavFailureIs alone: SUCCESS when ``nav_failure`` is one of the kinds, FAILURE otherwise."""
 
-import py_trees
+from __future__ import annotations
+
 import pytest
+from py_trees.common import Status
 
 from behaviours.nav_failure_is import NavFailureIs
-from tests.behaviours.nav_rig import make_rig
-
-S = py_trees.common.Status
+from tests.behaviours.rig import Rig
 
 
 @pytest.mark.parametrize(
-    ("failure", "status"), [("no_path", S.SUCCESS), ("blocked", S.FAILURE), (None, S.FAILURE)]
+    ("failure", "status"), [("no_path", Status.SUCCESS), ("blocked", Status.FAILURE), (None, Status.FAILURE)]
 )
-def test_it_succeeds_only_on_the_listed_kinds(failure: str | None, status: py_trees.common.Status) -> None:
-    rig = make_rig()
+def test_it_succeeds_only_on_the_listed_kinds(rig: Rig, failure: str | None, status: Status) -> None:
     rig.set("nav_failure", failure)
-    node = rig.build(NavFailureIs, kinds=["no_path", "start_blocked"])
-    assert rig.tick(node) == [status]
-    rig.show(node)
+    condition = rig.build(NavFailureIs, kinds=["no_path", "start_blocked"])
+    assert rig.tick(condition) == [status]
+    rig.show(condition)
+    assert rig.written_by(condition) == []
 
 
-def test_an_unknown_kind_is_refused_at_build_time() -> None:
+def test_an_unknown_kind_is_refused_at_build_time(rig: Rig) -> None:
     with pytest.raises(ValueError, match="unknown kinds"):
-        make_rig().build(NavFailureIs, kinds=["lost"])
+        rig.build(NavFailureIs, kinds=["lost"])

@@ -1,17 +1,18 @@
-"""Wait ticked alone: zero twist for the duration, then SUCCESS."""
+"""Wait alone: a zero twist for the duration (RUNNING), then SUCCESS."""
 
-import py_trees
+from __future__ import annotations
+
+from py_trees.common import Status
 
 from behaviours.wait import Wait
-from tests.behaviours.nav_rig import make_rig
+from semexp_bt.core.types import Twist
+from tests.behaviours.rig import Rig
 
-S = py_trees.common.Status
 
-
-def test_it_stands_still_for_the_duration() -> None:
-    rig = make_rig()
-    node = rig.build(Wait, duration_s=0.1)
-    statuses = rig.tick(node, 6)
-    rig.show(node)
-    assert statuses[:5] == [S.RUNNING] * 5 and statuses[5] == S.SUCCESS
-    assert rig.get("cmd_twist").linear_x_mps == 0.0
+def test_it_stands_still_for_the_duration(rig: Rig) -> None:
+    wait = rig.build(Wait, duration_s=0.1)
+    statuses = rig.tick(wait, 6)
+    rig.show(wait)
+    assert statuses[:5] == [Status.RUNNING] * 5 and statuses[5] == Status.SUCCESS
+    assert rig.get("cmd_twist") == Twist.zero()
+    assert rig.written_by(wait) == ["cmd_twist", "cmd_stamp_s"]

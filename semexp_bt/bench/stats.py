@@ -1,0 +1,159 @@
+"""The numbers of a sweep's rows: metric summaries per cell, matched episodes, latency, throughput.
+
+Only finished rows (``status == "ok"``) enter the metrics. Each summary is
+:func:`semexp_bt.core.metrics.summarize`: SR, SPL, OASR, SA and GNSA with their 95% intervals (Wilson
+for the rates, percentile bootstrap over episodes for SPL and GNSA). Comparisons between strategies
+use matched episodes: the (scene, seed) pairs every compared strategy finished.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from semexp_bt.bench.rows import STATUS_OK, to_episode_record
+from semexp_bt.core import metrics
+
+#: Pseudo-scene of the pooled column.
+ALL_SCENES = "all"
+#: Metrics of the report, in table order: key -> title.
+METRICS: dict[str, str] = {
+    "sr": "SR (success rate)",
+    "spl": "SPL (success weighted by path length)",
+    "oasr": "OASR (obstacle-avoidance success rate)",
+    "sa": "SA (semantic accuracy)",
+    "gnsa": "GNSA (global node selection accuracy)",
+}
+
+
+def ok_rows(rows: Sequence[Mapping[str, Any]]) -> list[Mapping[str, Any]]:
+    """Rows of finished episodes (``status == "ok"``)."""
+    return [r for r in rows if r.get("status") == STATUS_OK]
+
+
+def summarize_rows(rows: Sequence[Mapping[str, Any]], *, bootstrap_seed: int = 0) -> dict[str, Any] | None:
+    """:func:`semexp_bt.core.metrics.summarize` over the ok rows; None when there is none.
+
+    Raises:
+        ValueError: when the rows disagree on the success radius (one definition per comparison).
+    """
+    good = ok_rows(rows)
+    if not good:
+        return None
+    radii = {float(r.get("success_radius_m", metrics.DEFAULT_SUCCESS_RADIUS_M)) for r in good}
+    if len(radii) > 1:
+        raise ValueError(f"rows mix success radii {sorted(radii)}; compare one r_s at a time")
+    return metrics.summarize([to_episode_record(r) for r in good], success_radius_m=radii.pop(),
+                             bootstrap_seed=bootstrap_seed)  # fmt: skip
+
+
+def cell_summaries(rows: Sequence[Mapping[str, Any]]) -> dict[tuple[str, str], dict[str, Any]]:
+    """``(scene, strategy)`` and ``(ALL_SCENES, strategy)`` -> summary, for cells with ok rows."""
+    groups: dict[tuple[str, str], list[Mapping[str, Any]]] = {}
+    for row in ok_rows(rows):
+        groups.setdefault((row["scene"], row["strategy"]), []).append(row)
+        groups.setdefault((ALL_SCENES, row["strategy"]), []).append(row)
+    out = {}
+    for cell, members in groups.items():
+        summary = summarize_rows(members)
+        if summary is not None:
+            out[cell] = summary
+    return out
+
+
+def matched_rows(
+    rows: Sequence[Mapping[str, Any]], *, strategies: Sequence[str], scenes: Sequence[str]
+) -> list[Mapping[str, Any]]:
+    """Ok rows of ``strategies`` in ``scenes`` restricted to the (scene, seed) pairs all of them finished."""
+    good = [r for r in ok_rows(rows) if r["strategy"] in strategies and r["scene"] in scenes]
+    pairs: dict[tuple[str, int], set[str]] = {}
+    for r in good:
+        pairs.setdefault((r["scene"], int(r["seed"])), set()).add(r["strategy"])
+    complete = {pair for pair, have in pairs.items() if have >= set(strategies)}
+    return [r for r in good if (r["scene"], int(r["seed"])) in complete]
+
+
+def latency_table(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
+    """Per-stage latency and rate over ok rows (Table V).
+
+    For each stage in the records' ``timings``: calls per episode (median), rate on the simulated clock
+    (all calls / all simulated seconds), wall latency (median of the episodes' medians, median of their
+    p95). The ``tick`` row is the whole tree tick (``tick_wall_ms``, p99 in place of p95).
+    """
+    good = [r for r in ok_rows(rows) if r.get("sim_time_s")]
+    sim_total = sum(float(r["sim_time_s"]) for r in good)
+    stages: dict[str, list[Mapping[str, Any]]] = {}
+    for r in good:
+        for stage, t in (r.get("timings") or {}).items():
+            stages.setdefault(stage, []).append(t)
+    table = []
+    for stage in sorted(stages):
+        entries = stages[stage]
+        calls = sum(int(t["count"]) for t in entries)
+        table.append({
+            "stage": stage,
+            "episodes": len(entries),
+            "calls_per_episode": float(np.median([t["count"] for t in entries])),
+            "rate_hz": calls / sim_total if sim_total else math.nan,
+            "median_ms": float(np.median([t["median_ms"] for t in entries])),
+            "p95_ms": float(np.median([t["p95_ms"] for t in entries])),
+        })  # fmt: skip
+    ticks = [r for r in good if r.get("tick_wall_ms") and r.get("ticks")]
+    if ticks:
+        table.append({
+            "stage": "tick",
+            "episodes": len(ticks),
+            "calls_per_episode": float(np.median([r["ticks"] for r in ticks])),
+            "rate_hz": sum(int(r["ticks"]) for r in ticks) / sum(float(r["sim_time_s"]) for r in ticks),
+            "median_ms": float(np.median([r["tick_wall_ms"]["median"] for r in ticks])),
+            "p95_ms": float(np.median([r["tick_wall_ms"].get("p99", math.nan) for r in ticks])),
+        })  # fmt: skip
+    return table
+
+
+def intervals_disjoint(a: Sequence[float] | None, b: Sequence[float] | None) -> bool:
+    """Whether interval ``a`` lies entirely above interval ``b`` (the only case we claim a gain)."""
+    return a is not None and b is not None and a[0] > b[1]
+
+
+def false_successes(rows: Sequence[Mapping[str, Any]]) -> list[str]:
+    """Keys of finished episodes that declared success but did not end within r_s of the goal (the robot
+    confirmed something else: a distractor, or the goal from too far)."""
+    out = []
+    for r in ok_rows(rows):
+        radius = float(r.get("success_radius_m", metrics.DEFAULT_SUCCESS_RADIUS_M))
+        record = to_episode_record(r)
+        if record.success_declared and not metrics.success(record, success_radius_m=radius):
+            out.append(str(r["key"]))
+    return out
+
+
+def wall_per_sim_second(rows: Sequence[Mapping[str, Any]]) -> float | None:
+    """Total wall time over total simulated time of the finished episodes, or None without either."""
+    good = [r for r in ok_rows(rows) if r.get("wall_time_s") is not None and r.get("sim_time_s")]
+    sim = sum(float(r["sim_time_s"]) for r in good)
+    return sum(float(r["wall_time_s"]) for r in good) / sim if sim > 0.0 else None
+
+
+def throughput_by_fidelity(rows: Sequence[Mapping[str, Any]]) -> dict[str, dict[str, float]]:
+    """Per fidelity: finished episodes, episodes per hour per core, and wall time per simulated second.
+
+    A worker runs one episode at a time on one core, so episodes per hour per core is the episode count
+    over the episodes' own harness wall times (model loading and process start included), which does
+    not depend on how many workers ran them.
+    """
+    finished = ok_rows(rows)
+    out: dict[str, dict[str, float]] = {}
+    for fidelity in sorted({str(r.get("fidelity")) for r in finished}):
+        group = [r for r in finished if str(r.get("fidelity")) == fidelity]
+        busy_s = sum(float(r.get("harness_wall_s") or r.get("wall_time_s") or 0.0) for r in group)
+        ratio = wall_per_sim_second(group)
+        out[fidelity] = {
+            "episodes": float(len(group)),
+            "episodes_per_hour_per_core": 3600.0 * len(group) / busy_s if busy_s > 0.0 else float("nan"),
+            "wall_s_per_sim_s": float("nan") if ratio is None else ratio,
+        }
+    return out
