@@ -31,6 +31,7 @@ import py_trees
 
 from behaviours.base import SemExpBehaviour
 from behaviours.spec import param
+from semexp_bt.core.clock import has_elapsed
 from semexp_bt.core.types import Pose2D, Twist
 from semexp_bt.nav.controller import SafetyRules, discs_known, footprint_clearance
 from semexp_bt.nav.costmap import Costmap
@@ -88,7 +89,7 @@ class BackUp(SemExpBehaviour):
         t0, x0, y0 = self._start
         pose = self.services.robot.base_pose()
         moved = math.hypot(pose.x_m - x0, pose.y_m - y0)
-        if moved >= self.distance_m or self.now_s() - t0 > self.timeout_s:
+        if moved >= self.distance_m or has_elapsed(since_s=t0, now_s=self.now_s(), duration_s=self.timeout_s):
             self.command(Twist.zero())
             self.feedback_message = f"stepped {moved:.2f} m at {math.degrees(self._heading):.0f} deg"
             return py_trees.common.Status.SUCCESS

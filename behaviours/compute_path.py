@@ -33,6 +33,7 @@ import py_trees
 
 from behaviours.base import SemExpBehaviour
 from behaviours.spec import param
+from semexp_bt.core.clock import has_elapsed
 from semexp_bt.nav.global_planner import GlobalPlan, GlobalPlanner, GlobalPlannerConfig
 
 
@@ -67,8 +68,11 @@ class ComputePathToSubgoal(SemExpBehaviour):
         plan, now = self._plan, self.now_s()
         if plan is None or goal_xy != self._for:
             return True
-        age = now - plan.stamp_s
-        return age >= self.max_plan_age_s or (revision != plan.revision and age >= self.replan_period_s)
+        if has_elapsed(since_s=plan.stamp_s, now_s=now, duration_s=self.max_plan_age_s):
+            return True
+        return revision != plan.revision and has_elapsed(
+            since_s=plan.stamp_s, now_s=now, duration_s=self.replan_period_s
+        )
 
     def update(self) -> py_trees.common.Status:
         subgoal = self.read("subgoal")

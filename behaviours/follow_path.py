@@ -35,6 +35,7 @@ import py_trees
 
 from behaviours.base import SemExpBehaviour
 from behaviours.spec import param
+from semexp_bt.core.clock import has_elapsed
 from semexp_bt.core.types import Pose2D, Twist
 from semexp_bt.nav.controller import MotionLimits, SafetyRules, admissible, rollout
 from semexp_bt.nav.costmap import Costmap
@@ -117,7 +118,9 @@ class FollowPath(SemExpBehaviour):
         if result.status == "blocked":
             if self._blocked_since is None:
                 self._blocked_since = self.now_s()
-            elif self.now_s() - self._blocked_since > self.blocked_timeout_s:
+            elif has_elapsed(
+                since_s=self._blocked_since, now_s=self.now_s(), duration_s=self.blocked_timeout_s
+            ):
                 self.write("nav_failure", "blocked")
                 self.services.log_event("blocked", node_id=subgoal.node_id)
                 return py_trees.common.Status.FAILURE

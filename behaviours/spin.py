@@ -29,6 +29,7 @@ import py_trees
 from behaviours.base import SemExpBehaviour
 from behaviours.follow_path import turn_is_admissible
 from behaviours.spec import param
+from semexp_bt.core.clock import has_elapsed
 from semexp_bt.core.geometry import wrap_angle
 from semexp_bt.core.types import Twist
 
@@ -71,7 +72,7 @@ class Spin(SemExpBehaviour):
         if abs(remaining) < math.radians(3.0):
             self.command(Twist.zero())
             return py_trees.common.Status.SUCCESS
-        if self.now_s() - self._started_s > self.timeout_s:
+        if has_elapsed(since_s=self._started_s, now_s=self.now_s(), duration_s=self.timeout_s):
             self.command(Twist.zero())
             return py_trees.common.Status.FAILURE
         rate = math.copysign(min(self.yaw_rate_radps, max(0.25, 2.0 * abs(remaining))), remaining)

@@ -32,6 +32,7 @@ import py_trees
 
 from behaviours.base import SemExpBehaviour
 from behaviours.spec import param
+from semexp_bt.core.clock import has_elapsed
 from semexp_bt.core.geometry import wrap_angle
 
 
@@ -76,7 +77,7 @@ class StuckGuard(SemExpBehaviour):
         if self._approach is None or distance <= self._approach[1] - self.min_approach_m:
             self._approach = (self.now_s(), distance)
             return False
-        return self.now_s() - self._approach[0] > self.approach_window_s
+        return has_elapsed(since_s=self._approach[0], now_s=self.now_s(), duration_s=self.approach_window_s)
 
     def update(self) -> py_trees.common.Status:
         if self._no_approach():
@@ -94,7 +95,7 @@ class StuckGuard(SemExpBehaviour):
         if moved >= self.min_progress_m or turned >= self.min_turn_rad:
             self._reset()
             return py_trees.common.Status.RUNNING
-        if self.now_s() - t0 > self.window_s:
+        if has_elapsed(since_s=t0, now_s=self.now_s(), duration_s=self.window_s):
             self.feedback_message = f"stuck: {moved:.2f} m in {self.window_s:.0f} s"
             self.services.log_event("stuck", moved_m=round(moved, 3))
             self.write("nav_failure", "stuck")

@@ -20,6 +20,7 @@ import py_trees
 
 from behaviours.base import SemExpBehaviour
 from behaviours.spec import param
+from semexp_bt.core.clock import is_due
 from semexp_bt.core.types import Twist
 
 
@@ -39,4 +40,5 @@ class Wait(SemExpBehaviour):
         self.command(Twist.zero())
         left = self._until - self.now_s()
         self.feedback_message = f"{max(left, 0.0):.2f} s left"
-        return py_trees.common.Status.SUCCESS if left <= 1e-9 else py_trees.common.Status.RUNNING
+        done = is_due(now_s=self.now_s(), due_s=self._until)
+        return py_trees.common.Status.SUCCESS if done else py_trees.common.Status.RUNNING

@@ -32,6 +32,7 @@ import py_trees
 from behaviours.services import MissionServices
 from robots.interface import Robot
 from semexp_bt.app.executive import MissionTree, build_tree, prepare_board
+from semexp_bt.core.clock import is_due
 from semexp_bt.core.config import SemExpConfig
 from semexp_bt.core.memory import TopologicalMemory
 from semexp_bt.core.relevance import RelevanceScorer
@@ -248,7 +249,7 @@ def run_mission(
         status = tree.root.status
         if status != py_trees.common.Status.RUNNING:
             break
-        if robot.now_s() >= stop_after_s:
+        if is_due(now_s=robot.now_s(), due_s=stop_after_s):
             board.mission_outcome = "budget_exceeded"
             break
         robot.advance(TICK_PERIOD_S)
