@@ -52,8 +52,8 @@ from semexp_bt.core.evidence import calibrate, candidate_box
 from semexp_bt.core.geometry import back_project, object_surface_depth
 from semexp_bt.core.memory import TopologicalMemory
 from semexp_bt.core.types import FloatArray, Pose2D
+from semexp_bt.nav.costmap import Costmap
 from semexp_bt.nav.frontier import depth_frontiers
-from semexp_bt.nav.local_map import OccupancyMap
 
 Box = tuple[float, float, float, float]
 
@@ -131,7 +131,7 @@ class UpdateMemory(SemExpBehaviour):
     max_frontiers: int = param("int", doc="at most this many frontiers per view", default=2, ge=0)
     map_frontier_confidence: float = param(
         "float",
-        doc="confidence of a node at an occupancy-map frontier (0: no map frontiers)",
+        doc="confidence of a node at an costmap frontier (0: no map frontiers)",
         default=0.6,
         ge=0.0,
         le=1.0,
@@ -148,7 +148,7 @@ class UpdateMemory(SemExpBehaviour):
 
     #: A place node stands at least this far from the camera, m.
     min_place_depth_m = 0.5
-    #: Eq. 7 on the occupancy map: place nodes within this radius of the robot are checked, m ...
+    #: Eq. 7 on the costmap: place nodes within this radius of the robot are checked, m ...
     map_observe_radius_m = 6.0
     #: ... and decay once the map knows this share of their 1 m neighbourhood.
     seen_fraction = 0.85
@@ -313,8 +313,8 @@ class UpdateMemory(SemExpBehaviour):
         node_id, distance = nearest
         return distance <= memory.config.delta_d and memory.node(node_id).label != label
 
-    def _map_exploration(self, memory: TopologicalMemory, local_map: OccupancyMap, pose: Pose2D) -> list[str]:
-        """Eq. 7 with "surroundings observed" measured on the occupancy map, plus map frontiers as nodes.
+    def _map_exploration(self, memory: TopologicalMemory, local_map: Costmap, pose: Pose2D) -> list[str]:
+        """Eq. 7 with "surroundings observed" measured on the costmap, plus its frontiers as nodes.
 
         A place node (not an instructed object) whose 1 m neighbourhood the map has now mostly seen decays
         by (1 - xi): nothing is left to discover there. And the seen/unseen boundary of the map (the

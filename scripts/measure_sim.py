@@ -26,13 +26,11 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from behaviours.local_plan import depth_pixel_grids
 from robots.camera import CameraConfig
 from robots.mujoco_backend import MujocoRobot
 from semexp_bt.core.scene import SceneObject, SceneSpec, Shape
-from semexp_bt.core.types import Pose2D, Twist
-from semexp_bt.nav.local_map import OccupancyMap
-from semexp_bt.nav.planner import DepthArcPlanner
+from semexp_bt.core.types import PixelGrid, Pose2D, Twist
+from semexp_bt.nav.costmap import CostmapConfig
 
 ROOM_HALF_X_M = 4.0
 ROOM_HALF_Y_M = 3.0
@@ -190,8 +188,7 @@ def render_figures(
         "observe_ms": robot.observe,
         "observe_depth_ms": robot.observe_depth,
     }
-    pose = robot.base_pose()
-    grids = depth_pixel_grids(DepthArcPlanner(), OccupancyMap(origin_xy=(pose.x_m, pose.y_m)))
+    grids = [PixelGrid.centred(CostmapConfig().pixel_stride)]  # the costmap's pixels (UpdateCostmap's)
     tasks["observe_depth_rays_ms"] = lambda: robot.observe_depth(pixel_grids=grids)
     figures["ray_count"] = int(np.isfinite(robot.observe_depth(pixel_grids=grids).depth_m).sum())
     for name, task in tasks.items():

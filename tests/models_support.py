@@ -14,7 +14,7 @@ from semexp_bt.app.runner import MissionComponents, MissionResult, run_mission
 from semexp_bt.core.config import SemExpConfig
 from semexp_bt.core.relevance import CachedRelevance, LexicalRelevance
 from semexp_bt.core.types import Observation, Pose2D, Twist
-from semexp_bt.nav.planner import DepthArcPlanner
+from semexp_bt.nav.pure_pursuit import RegulatedPurePursuit
 from semexp_bt.perception.adapters.chat import CircuitBreaker, OpenAIChatClient
 from semexp_bt.perception.adapters.vlm import SceneVLM
 from semexp_bt.perception.interface import PerceptionSource
@@ -99,7 +99,7 @@ def perceive_once(tmp_path: Path, perception: PerceptionSource) -> MissionResult
             robot=robot,
             perception=perception,
             relevance=CachedRelevance(LexicalRelevance()),
-            planner=DepthArcPlanner(),
+            planner=RegulatedPurePursuit(),
         ),
         config=SemExpConfig(),
         instructions=[INSTRUCTION],

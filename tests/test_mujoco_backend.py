@@ -522,7 +522,7 @@ def test_flat_colour_depth_pass_reads_the_lit_pass_depth_to_the_bit(scene_name: 
         robot.close()
 
 
-#: The pixels LocalPlan asks for by default: the planner's grid and the occupancy map's.
+#: The pixels UpdateCostmap asks for (the costmap's grid), and the 6-pixel grid perception-side maps read.
 PLANNER_AND_MAP_GRIDS = (PixelGrid(stride=4, offset=2), PixelGrid(stride=6, offset=0))
 
 

@@ -28,7 +28,7 @@ if TYPE_CHECKING:
     from robots.gait_policy import GaitController
     from robots.interface import Fidelity, Robot
     from semexp_bt.core.scene import SceneSpec
-    from semexp_bt.nav.planner import LocalPlanner
+    from semexp_bt.nav.controller import PathController
     from semexp_bt.perception.adapters.stack import ModelStack
     from semexp_bt.perception.interface import PerceptionSource
 
@@ -137,10 +137,16 @@ def _llm_relevance(request: ComponentRequest | None) -> CachedRelevance:
     return CachedRelevance(request.require_models("the llm relevance scorer").relevance())
 
 
-def _depth_arc_planner() -> LocalPlanner:
-    from semexp_bt.nav.planner import DepthArcPlanner
+def _dwb_controller() -> PathController:
+    from semexp_bt.nav.dwb import DwbController
 
-    return DepthArcPlanner()
+    return DwbController()
+
+
+def _pure_pursuit_controller() -> PathController:
+    from semexp_bt.nav.pure_pursuit import RegulatedPurePursuit
+
+    return RegulatedPurePursuit()
 
 
 #: Robot backends: name -> builder.
@@ -159,8 +165,10 @@ RELEVANCE_SCORERS: dict[str, Callable[[ComponentRequest | None], CachedRelevance
     "lexical": _lexical_relevance,
     "llm": _llm_relevance,
 }
-#: Local planners: name -> builder.
-PLANNERS: dict[str, Callable[[], LocalPlanner]] = {"depth_arc": _depth_arc_planner}
+#: Path-following controllers on the costmap (docs/planner.md compares them): name -> builder.
+PLANNERS: dict[str, Callable[[], PathController]] = {"dwb": _dwb_controller, "rpp": _pure_pursuit_controller}
+#: The controller a mission uses unless told otherwise.
+DEFAULT_PLANNER = "rpp"
 
 _T = TypeVar("_T")
 
@@ -188,8 +196,8 @@ def build_relevance(name: str, request: ComponentRequest | None = None) -> Cache
     return _lookup(RELEVANCE_SCORERS, "relevance scorer", name)(request)
 
 
-def build_planner(name: str) -> LocalPlanner:
-    """The local planner called ``name``."""
+def build_planner(name: str) -> PathController:
+    """The path-following controller called ``name``."""
     return _lookup(PLANNERS, "planner", name)()
 
 

@@ -14,6 +14,7 @@ the same tree, selected with ``strategy``; see ``semexp_bt/app/strategies.yaml``
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Mapping
@@ -24,6 +25,7 @@ from typing import TYPE_CHECKING, Any, TextIO, cast
 import numpy as np
 
 from semexp_bt.app.components import (
+    DEFAULT_PLANNER,
     ComponentRequest,
     build_gait,
     build_perception,
@@ -42,7 +44,7 @@ from semexp_bt.app.runner import (
 )
 from semexp_bt.app.strategies import Strategy, resolve_strategy
 from semexp_bt.core.metrics import DEFAULT_CLEARANCE_M, DEFAULT_SUCCESS_RADIUS_M
-from semexp_bt.core.scene import SceneSpec
+from semexp_bt.core.scene import SceneObject, SceneSpec
 from sims.catalogue import build_scene
 from sims.episode_scoring import score_episode, snap_to_free
 from sims.episodes import Episode, sample_episode
@@ -78,7 +80,7 @@ class EpisodeOptions:
         perception: ``emulator`` (default) or ``models`` (the real models of ``models``; the simulation
             then runs at wall-clock pace unless the profile says otherwise).
         models: the models profile for ``perception="models"`` and ``relevance="llm"``.
-        planner: the local planner's name (``semexp_bt.app.components.PLANNERS``).
+        planner: the path-following controller's name (``semexp_bt.app.components.PLANNERS``).
         config_overrides: SemExpConfig overrides from the command line (the last layer).
         display: print the tick-level display to ``display_stream``.
         display_stream: where the display prints (stdout by default).
@@ -101,7 +103,7 @@ class EpisodeOptions:
     relevance: str = "embedding"
     perception: str = "emulator"
     models: ModelsProfile | None = None
-    planner: str = "depth_arc"
+    planner: str = DEFAULT_PLANNER
     config_overrides: Mapping[str, Any] | None = None
     display: bool = False
     display_stream: TextIO | None = None
@@ -171,6 +173,10 @@ def run_episode(options: EpisodeOptions) -> dict[str, Any]:
         privileged = None
         if strategy.switches.get("decision") == "oracle":
             privileged = privileged_goal(scene, oracle, success_radius_m=options.success_radius_m)
+        elif strategy.switches.get("decision") == "oracle_nav":
+            privileged = privileged_navigation(
+                scene, oracle, start=episode.start, success_radius_m=options.success_radius_m
+            )
         result = run_mission(
             mission=mission,
             components=components,
@@ -225,6 +231,52 @@ def privileged_goal(
     return PrivilegedKnowledge(
         goal_xy=(float(scene.goal.position_m[0]), float(scene.goal.position_m[1])), goal_distance=distance
     )
+
+
+#: The true map handed to ``oracle_nav`` gets this many rings of occupied cells around the scene bounds
+#: (the walls beyond them, as the oracle's own grid assumes).
+PRIVILEGED_MAP_BORDER_CELLS = 2
+
+
+def privileged_navigation(
+    scene: SceneSpec, oracle: GeodesicOracle, *, start: Any, success_radius_m: float
+) -> PrivilegedKnowledge:
+    """PRIVILEGED, for the ``oracle_nav`` reference strategy (the execution layer's ceiling): the goal, a
+    place to stand within the success radius (the end of the true shortest path from the start), the
+    goal object's point nearest it, and the true occupancy map of the scene (``sims.geodesic``'s grid, not
+    inflated: the navigation stack inflates it by the Go1's own footprint)."""
+    knowledge = privileged_goal(scene, oracle, success_radius_m=success_radius_m)
+    goal_id = scene.goal.object_id
+    path = oracle.path_to_object((start.x_m, start.y_m), goal_id, success_radius_m=success_radius_m)
+    standpoint = (float(path[-1][0]), float(path[-1][1])) if len(path) else knowledge.goal_xy
+    goal_point = nearest_point_on_main_shape(scene.goal, standpoint)
+    geometry = oracle.occupancy.geometry
+    border = PRIVILEGED_MAP_BORDER_CELLS
+    occupied = np.pad(oracle.occupancy.occupied, border, constant_values=True)
+    lower_left = (
+        geometry.x_min_m - border * geometry.resolution_m,
+        geometry.y_min_m - border * geometry.resolution_m,
+    )
+    return dataclasses.replace(
+        knowledge,
+        goal_point_xy=goal_point,
+        standpoint_xy=standpoint,
+        occupancy=(occupied, lower_left, geometry.resolution_m),
+    )
+
+
+def nearest_point_on_main_shape(obj: SceneObject, xy: tuple[float, float]) -> tuple[float, float]:
+    """The point of the object's main box or cylinder nearest ``xy`` (SR measures to that shape:
+    ``SceneObject.boundary_distance_m``)."""
+    dx, dy = xy[0] - obj.position_m[0], xy[1] - obj.position_m[1]
+    if obj.shape == "cylinder":
+        norm = math.hypot(dx, dy)
+        scale = min(1.0, obj.size_m[0] / norm) if norm > 0 else 0.0
+        return (obj.position_m[0] + dx * scale, obj.position_m[1] + dy * scale)
+    c, s = math.cos(obj.yaw_rad), math.sin(obj.yaw_rad)
+    lx = max(-obj.size_m[0], min(obj.size_m[0], c * dx + s * dy))
+    ly = max(-obj.size_m[1], min(obj.size_m[1], -s * dx + c * dy))
+    return (obj.position_m[0] + c * lx - s * ly, obj.position_m[1] + s * lx + c * ly)
 
 
 def subsample_path(positions: list[np.ndarray], *, step_m: float) -> list[list[float]]:

@@ -32,6 +32,7 @@ from typing import Any, TextIO
 import numpy as np
 
 from semexp_bt.app.components import (
+    DEFAULT_PLANNER,
     ComponentRequest,
     build_perception,
     build_planner,
@@ -66,7 +67,7 @@ class Ros2MissionOptions:
         strategy: a named strategy (``semexp_bt/app/strategies.yaml``); reference strategies that are told
             where the goal is cannot run here.
         relevance: the relevance scorer's name.
-        planner: the local planner's name.
+        planner: the path-following controller's name.
         config_overrides: SemExpConfig overrides from the command line (the last layer).
         display: print the tick-level display to ``display_stream``.
         display_stream: where the display prints.
@@ -81,7 +82,7 @@ class Ros2MissionOptions:
     seed: int = 0
     strategy: str = "ours"
     relevance: str = "embedding"
-    planner: str = "depth_arc"
+    planner: str = DEFAULT_PLANNER
     config_overrides: Mapping[str, Any] | None = None
     display: bool = False
     display_stream: TextIO | None = None

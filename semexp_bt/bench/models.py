@@ -190,6 +190,7 @@ def measure_ticks(
 ) -> dict[str, Any]:
     """Tick wall and CPU time with and without a ``delay_s`` VLM request in flight (MuJoCo, real time)."""
     from semexp_bt.app.components import (
+        DEFAULT_PLANNER,
         ComponentRequest,
         build_perception,
         build_planner,
@@ -225,7 +226,7 @@ def measure_ticks(
                     robot=robot,
                     perception=build_perception("models", request),
                     relevance=build_relevance("lexical"),
-                    planner=build_planner("depth_arc"),
+                    planner=build_planner(DEFAULT_PLANNER),
                 ),
                 config=resolve_config(),
                 instructions=[scene.instruction],

@@ -21,7 +21,13 @@ import time
 from pathlib import Path
 from typing import Any
 
-from semexp_bt.app.components import PERCEPTION_SOURCES, PLANNERS, RELEVANCE_SCORERS, ROBOT_BACKENDS
+from semexp_bt.app.components import (
+    DEFAULT_PLANNER,
+    PERCEPTION_SOURCES,
+    PLANNERS,
+    RELEVANCE_SCORERS,
+    ROBOT_BACKENDS,
+)
 from semexp_bt.app.models_profile import add_models_arguments, models_profile_from_args
 from semexp_bt.cli.arguments import output_file, print_error, scene_name, seed, strategy_name
 from semexp_bt.core.durable import write_json
@@ -70,7 +76,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--robot-profile", type=Path, default=None, help="ros2: robot profile (default: robots/go1/ros2.yaml)"
     )
-    parser.add_argument("--planner", choices=sorted(PLANNERS), default="depth_arc", help="local planner")
+    parser.add_argument(
+        "--planner", choices=sorted(PLANNERS), default=DEFAULT_PLANNER, help="path-following controller"
+    )
     parser.add_argument(
         "--config", type=Path, default=None, help="YAML of config overrides (the last layer; docs/config.md)"
     )
