@@ -14,8 +14,8 @@ import py_trees
 from behaviours.services import SERVICES_KEY, MissionServices
 from behaviours.spec import BuildContext
 from blackboard.schema import fresh_board
+from semexp_bt.core.instruction import instruction_target
 from semexp_bt.core.memory import TopologicalMemory
-from semexp_bt.core.relevance import instruction_target
 from semexp_bt.core.types import Pose2D
 from semexp_bt.nav.local_map import OccupancyMap
 from trees.loader import MissionDocument, load_mission
