@@ -19,7 +19,6 @@ instructed object.
 
 from __future__ import annotations
 
-import re
 import threading
 from collections.abc import Sequence
 from typing import Protocol, runtime_checkable
