@@ -55,6 +55,9 @@ def _summary(record: dict) -> str:
     )
 
 
+# Slow: these seeds were solved by the session-8 code; the graded emulator (issue #18) changes every
+# episode, and a seed list fixed before outcomes replaces them with the navigation stack (issue #17).
+@pytest.mark.slow
 @pytest.mark.parametrize(("scene", "seed"), SOLVED_EPISODES)
 def test_paper_mission_finds_the_goal(scene: str, seed: int) -> None:
     record = run_episode(EpisodeOptions(mission_path=MISSION, scene=scene, seed=seed, relevance="embedding"))
