@@ -56,10 +56,11 @@ from typing import Any
 import numpy as np
 import py_trees
 
-from behaviours.base import INSTRUCTED_OBJECT_RELEVANCE, SemExpBehaviour
+from behaviours.base import SemExpBehaviour
 from behaviours.spec import param
 from semexp_bt.core.evidence import ArbitrationResult, arbitrate, candidate_box
 from semexp_bt.core.geometry import back_project, object_surface_depth
+from semexp_bt.core.relevance import NAMES_OBJECT_RELEVANCE
 from semexp_bt.core.types import Observation, SceneEvidence
 from semexp_bt.perception.interface import PerceptionJob
 
@@ -126,7 +127,7 @@ class ConfirmTarget(SemExpBehaviour):
         "float",
         doc="relevance at which a label counts as the instructed object (0.9: the instructed label or a synonym; "
         "a partial match such as 'shelf' for 'bucket shelf' is a distractor, never a success)",
-        default=INSTRUCTED_OBJECT_RELEVANCE,
+        default=NAMES_OBJECT_RELEVANCE,
         ge=0.0,
         le=1.0,
     )

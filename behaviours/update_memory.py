@@ -46,11 +46,12 @@ from typing import Any, NamedTuple
 import numpy as np
 import py_trees
 
-from behaviours.base import INSTRUCTED_OBJECT_RELEVANCE, SemExpBehaviour
+from behaviours.base import SemExpBehaviour
 from behaviours.spec import param
 from semexp_bt.core.evidence import calibrate, candidate_box
 from semexp_bt.core.geometry import back_project, object_surface_depth
 from semexp_bt.core.memory import TopologicalMemory
+from semexp_bt.core.relevance import RELATED_RELEVANCE
 from semexp_bt.core.types import FloatArray, Pose2D
 from semexp_bt.nav.costmap import Costmap
 from semexp_bt.nav.frontier import depth_frontiers
@@ -290,7 +291,7 @@ class UpdateMemory(SemExpBehaviour):
         """Revival (see the module docstring): strong evidence for the instructed object restores its node."""
         if score < self.revive_min_score or self._revivals.get(node_id, 0) >= self.max_revivals:
             return []
-        if not self.names_instructed_object(label, threshold=INSTRUCTED_OBJECT_RELEVANCE):
+        if not self.names_instructed_object(label):
             return []
         state = memory.node(node_id)
         if not memory.raise_potential(node_id=node_id, at_least=state.confidence):
@@ -300,7 +301,7 @@ class UpdateMemory(SemExpBehaviour):
 
     def _instructed(self, label: str) -> bool:
         """Whether ``label`` names what the instruction asks for (only such evidence may relabel a node)."""
-        return self.names_instructed_object(label, threshold=0.6)
+        return self.names_instructed_object(label, threshold=RELATED_RELEVANCE)
 
     @staticmethod
     def _would_relabel(memory: TopologicalMemory, point: Sequence[float] | FloatArray, label: str) -> bool:

@@ -78,6 +78,9 @@ def _object_entry(obj: SceneObject) -> dict[str, Any]:
         "size_m": list(obj.size_m),
         "is_obstacle": obj.is_obstacle,
         "role": obj.role,
+        "aliases": list(obj.aliases),
+        "colour": obj.colour,
+        "size": obj.size,
     }
 
 
@@ -93,7 +96,6 @@ def encode_simulation_info(scene: SceneSpec, *, mode: BridgeMode, control_period
                 "title": scene.title,
                 "seed": scene.seed,
                 "instruction": scene.instruction,
-                "goal_category": scene.goal_category,
                 "goal_object_id": scene.goal_object_id,
                 "outdoor": scene.outdoor,
                 "objects": [_object_entry(obj) for obj in scene.objects],
@@ -148,6 +150,9 @@ def decode_simulation_info(text: str) -> SimulationInfo:
                 size_m=(size[0], size[1], size[2]),
                 is_obstacle=bool(_field(entry, "is_obstacle", bool, topic)),
                 role=_field(entry, "role", str, topic),
+                aliases=tuple(str(a) for a in _field(entry, "aliases", list, topic)),
+                colour=str(_field(entry, "colour", str, topic)),
+                size=str(_field(entry, "size", str, topic)),
             )
         )
     goal_id = int(_field(scene_data, "goal_object_id", int, topic))
@@ -161,7 +166,6 @@ def decode_simulation_info(text: str) -> SimulationInfo:
         objects=tuple(objects),
         goal_object_id=goal_id,
         instruction=str(_field(scene_data, "instruction", str, topic)),
-        goal_category=str(_field(scene_data, "goal_category", str, topic)),
         outdoor=bool(_field(scene_data, "outdoor", bool, topic)),
     )
     return SimulationInfo(

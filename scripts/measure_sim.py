@@ -93,7 +93,6 @@ def benchmark_scene(seed: int) -> SceneSpec:
         objects=tuple(objects),
         goal_object_id=len(walls),
         instruction="find the thing",
-        goal_category="thing",
     )
 
 

@@ -19,6 +19,7 @@ from semexp_bt.core.scene import SceneObject, SceneSpec
 from semexp_bt.core.types import Pose2D, SafetyState
 from sims.episodes import Episode
 from sims.geodesic import GeodesicOracle
+from sims.naming import named_objects
 
 
 def snap_to_free(
@@ -55,6 +56,35 @@ def reached_object(
     return reached
 
 
+def _distance_to_any(objects: Sequence[SceneObject], xy: tuple[float, float]) -> float:
+    return min((o.boundary_distance_m(xy) for o in objects), default=math.inf)
+
+
+def judged_success(
+    *,
+    instructions: Sequence[str],
+    named: dict[str, tuple[SceneObject, ...]],
+    found_objects: Sequence[dict[str, Any]],
+    final_xy: tuple[float, float],
+    success_radius_m: float,
+) -> bool:
+    """Whether every instruction's object was reached: for each instruction, the robot stood within r_s of
+    an object the instruction names (``sims.naming.named_objects``, the ground truth of naming) where it
+    confirmed an object for that instruction, or, for the last instruction, where the mission ended. An
+    instruction that names nothing in the scene never succeeds."""
+    for index, instruction in enumerate(instructions):
+        spots = [
+            tuple(e["robot_xy"])
+            for e in found_objects
+            if e.get("robot_xy") and e.get("instruction", instruction) == instruction
+        ]
+        if index == len(instructions) - 1:
+            spots.append(final_xy)
+        if not any(_distance_to_any(named[instruction], (s[0], s[1])) <= success_radius_m for s in spots):
+            return False
+    return True
+
+
 def path_length_m(positions: Sequence[np.ndarray]) -> float:
     """Length (m) of the polyline through the base positions."""
     path = np.asarray(positions, dtype=float)
@@ -72,8 +102,13 @@ def score_episode(
     safety: SafetyState,
     success_radius_m: float,
     clearance_m: float,
+    instructions: Sequence[str] | None = None,
 ) -> dict[str, Any]:
     """The ground-truth part of an episode record (JSON-serialisable), keys in the record's order.
+
+    Success is judged at the objects the instructions name (any wording of the goal names the goal; a
+    distractor's name names the distractor; an absent object's name names nothing), not at the scene's
+    goal only.
 
     Args:
         scene: the scene.
@@ -85,21 +120,25 @@ def score_episode(
         safety: the robot's safety log (collision and clearance events).
         success_radius_m: r_s.
         clearance_m: the clearance threshold for OASR.
+        instructions: the mission's instructions, in order (None: the scene's own).
     """
     goal = scene.goal
+    instructions = list(instructions) if instructions else [scene.instruction]
+    named = {instruction: named_objects(scene, instruction) for instruction in dict.fromkeys(instructions)}
+    last_named = named[instructions[-1]]
     final_xy = (final_pose.x_m, final_pose.y_m)
     collisions = [e for e in safety.events if e.kind == "collision"]
     breaches = [e for e in safety.events if e.kind == "clearance" and e.distance_m < clearance_m]
     anchor = tuple(found_objects[-1]["position_m"][:2]) if found_objects else final_xy
     reached = reached_object(scene, (anchor[0], anchor[1]), final_xy, success_radius_m)
     declared = outcome == "success"
-    # For missions that move on after confirming (search, then return), success is judged where the
-    # robot stood when it confirmed the goal object; for the paper's mission that is the final position.
-    judged_xy = final_xy
-    for entry in found_objects:
-        if entry.get("robot_xy") and goal.boundary_distance_m(tuple(entry["robot_xy"])) <= success_radius_m:
-            judged_xy = tuple(entry["robot_xy"])
-    judged_distance = goal.boundary_distance_m(judged_xy)
+    success = declared and judged_success(
+        instructions=instructions,
+        named=named,
+        found_objects=found_objects,
+        final_xy=final_xy,
+        success_radius_m=success_radius_m,
+    )
     return {
         "goal": {
             "object_id": goal.object_id,
@@ -111,10 +150,12 @@ def score_episode(
         "start_pose": {"x_m": episode.start.x_m, "y_m": episode.start.y_m, "yaw_rad": episode.start.yaw_rad},
         "outcome": outcome,
         "success_declared": declared,
-        "success": bool(declared and judged_distance <= success_radius_m),
+        "success": bool(success),
         "success_radius_m": success_radius_m,
         "final_pose": {"x_m": final_pose.x_m, "y_m": final_pose.y_m, "yaw_rad": final_pose.yaw_rad},
-        "distance_to_goal_m": goal.boundary_distance_m(final_xy),
+        "distance_to_goal_m": _distance_to_any(last_named, final_xy)
+        if last_named
+        else goal.boundary_distance_m(final_xy),
         "path_length_m": path_length_m(positions),
         "geodesic_length_m": float(episode.geodesic_length_m),
         "collision": bool(collisions or breaches),
@@ -123,10 +164,17 @@ def score_episode(
         "min_clearance_m": float(safety.min_clearance_m) if math.isfinite(safety.min_clearance_m) else None,
         "reached_object": None
         if reached is None
-        else {"name": reached.name, "label": reached.label, "category": reached.category},
+        else {
+            "name": reached.name,
+            "label": reached.label,
+            "category": reached.category,
+            "role": reached.role,
+        },
         "reached_category": None if reached is None else reached.category,
+        "reached_named": reached is not None and reached in last_named,
+        "named_objects": {i: [o.name for o in objects] for i, objects in named.items()},
         "goal_category": goal.category,
     }
 
 
-__all__ = ["path_length_m", "reached_object", "score_episode", "snap_to_free"]
+__all__ = ["judged_success", "path_length_m", "reached_object", "score_episode", "snap_to_free"]

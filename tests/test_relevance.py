@@ -10,14 +10,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from semexp_bt.core.instruction import instruction_target
+from semexp_bt.core.language import canonical_tokens, singularise
 from semexp_bt.core.relevance import (
-    COLOUR_CONFLICT_FACTOR,
+    ATTRIBUTE_CONFLICT_FACTOR,
     CachedRelevance,
     LexicalRelevance,
     RelevanceScorer,
-    canonical_tokens,
-    instruction_target,
-    singularise,
 )
 from semexp_bt.core.types import InvalidInputError
 
@@ -89,7 +88,7 @@ def test_lexical_hand_worked_scores() -> None:
         return LEXICAL.score(instruction=instruction, label=label)
 
     # black(1) chair(2) vs grey(1) chair(2): shared chair -> (2 + 2) / (3 + 3), times the colour conflict.
-    assert s("find the black chair", "grey chair") == pytest.approx(4 / 6 * COLOUR_CONFLICT_FACTOR)
+    assert s("find the black chair", "grey chair") == pytest.approx(4 / 6 * ATTRIBUTE_CONFLICT_FACTOR)
     # black(1) chair(2) vs chair(2): (2 + 2) / (3 + 2); no conflict, the label names no colour.
     assert s("find the black chair", "chair") == pytest.approx(0.8)
     # shared modifier only: (1 + 1) / (3 + 3).

@@ -9,7 +9,7 @@ MuJoCo renderer; a lexical run needs no torch).
 
 Example:
     >>> sorted(RELEVANCE_SCORERS)
-    ['embedding', 'lexical', 'llm']
+    ['embedding', 'hybrid', 'lexical', 'llm']
     >>> build_relevance("lexical").score(instruction="find the red chair", label="chair") > 0.5
     True
 """
@@ -123,6 +123,13 @@ def _embedding_relevance(request: ComponentRequest | None) -> CachedRelevance:
     return CachedRelevance(shared_embedding_relevance())
 
 
+def _hybrid_relevance(request: ComponentRequest | None) -> CachedRelevance:
+    from semexp_bt.core.relevance import HybridRelevance
+    from semexp_bt.perception.embedding_relevance import shared_embedding_relevance
+
+    return CachedRelevance(HybridRelevance(shared_embedding_relevance()))
+
+
 def _lexical_relevance(request: ComponentRequest | None) -> CachedRelevance:
     from semexp_bt.core.relevance import LexicalRelevance
 
@@ -162,6 +169,7 @@ PERCEPTION_SOURCES: dict[str, Callable[[ComponentRequest], PerceptionSource]] = 
 #: Relevance scorers S in [0, 1]: name -> builder of a cached scorer (a fresh cache per mission).
 RELEVANCE_SCORERS: dict[str, Callable[[ComponentRequest | None], CachedRelevance]] = {
     "embedding": _embedding_relevance,
+    "hybrid": _hybrid_relevance,
     "lexical": _lexical_relevance,
     "llm": _llm_relevance,
 }

@@ -340,6 +340,7 @@ def episode_record(
         safety=robot.safety(),
         success_radius_m=options.success_radius_m,
         clearance_m=options.clearance_m,
+        instructions=result.instructions,
     )
     decisions = with_oracle_nodes(
         result.services.decision_log,

@@ -15,8 +15,8 @@ from behaviours.services import SERVICES_KEY, MissionServices
 from behaviours.spec import BuildContext
 from blackboard.schema import fresh_board
 from robots.go1 import go1_footprint
+from semexp_bt.core.instruction import instruction_target
 from semexp_bt.core.memory import TopologicalMemory
-from semexp_bt.core.relevance import instruction_target
 from semexp_bt.core.types import Pose2D
 from semexp_bt.nav.costmap import Costmap, CostmapConfig
 from trees.loader import MissionDocument, load_mission

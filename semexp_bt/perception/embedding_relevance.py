@@ -28,10 +28,8 @@ from typing import Any
 
 import numpy as np
 
-from semexp_bt.core.relevance import (
-    FloatArray,
-    instruction_target,
-)
+from semexp_bt.core.instruction import instruction_target
+from semexp_bt.core.relevance import FloatArray
 
 #: Cosine similarity that maps to relevance 0 (the "unrelated" floor of all-MiniLM-L6-v2 on short
 #: object phrases, measured on the product vocabulary; see docs/decision.md).

@@ -399,6 +399,7 @@ def export_mcap(directory: Path, out_path: Path) -> ExportSummary:
         )
     from mcap_ros2.writer import Writer
     from rosbags.typesys import Stores, get_typestore
+
     world = _read_world(recording.world_path)
     store = get_typestore(Stores.ROS2_HUMBLE)
     out_path = Path(out_path)
