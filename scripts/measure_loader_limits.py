@@ -16,9 +16,9 @@ import tracemalloc
 from collections.abc import Callable
 from pathlib import Path
 
+from semexp_bt.files.yaml_source import MAX_FILE_BYTES, MAX_NESTING_DEPTH
 from trees.declarations import MAX_INCLUDE_DEPTH, MAX_REPORTED_ERRORS
 from trees.loader import validate_mission
-from trees.yaml_source import MAX_FILE_BYTES, MAX_NESTING_DEPTH
 
 REPO = Path(__file__).resolve().parents[1]
 

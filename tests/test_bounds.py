@@ -15,7 +15,7 @@ from behaviours.spec import ParamSpec
 from semexp_bt.core.bounds import Interval, field_interval, field_range
 from semexp_bt.core.config import ConfigError, check_value, config_from_dict, field_problem
 from semexp_bt.core.types import InvalidInputError
-from semexp_bt.nav.planner import PlannerConfig
+from semexp_bt.nav.costmap import CostmapConfig
 
 
 def test_interval_notation_writes_each_end_as_declared() -> None:
@@ -86,12 +86,12 @@ def test_field_problem_names_the_first_bad_field() -> None:
 
 
 def test_the_three_declarations_give_one_verdict_on_the_same_bound() -> None:
-    # rho in (0, 1] for the config loader; robot_radius_m in [0.05, 2.0] for the planner; > 0 for a node.
+    # rho in (0, 1] for the config loader; resolution_m in [0.005, 1.0] for the costmap; > 0 for a node.
     with pytest.raises(ConfigError, match=r"x\.yaml: key 'rho' must lie in \(0\.0, 1\.0\], got 0\.0"):
         config_from_dict({"rho": 0.0}, cls=_Gate, where="x.yaml")
     assert config_from_dict({"rho": 1}, cls=_Gate, where="x.yaml").rho == 1.0
-    with pytest.raises(InvalidInputError, match=r"PlannerConfig\.robot_radius_m must lie in \[0\.05, 2\.0\]"):
-        PlannerConfig(robot_radius_m=2.5)
+    with pytest.raises(InvalidInputError, match=r"CostmapConfig\.resolution_m must lie in \[0\.005, 1\.0\]"):
+        CostmapConfig(resolution_m=2.5)
     spec = ParamSpec("float", doc="a speed, m/s", default=0.2, gt=0.0, le=0.5)
     assert spec.check(0.0) == (0.0, "value 0.0 out of range: must be > 0")
     assert spec.check(0.6) == (0.6, "value 0.6 out of range: must be <= 0.5")

@@ -21,7 +21,7 @@ from semexp_bt.core.bounds import Interval, field_interval
 from semexp_bt.core.config import ConfigError, SemExpConfig
 from semexp_bt.core.relevance import CachedRelevance, LexicalRelevance
 from semexp_bt.core.types import Pose2D, SceneEvidence
-from semexp_bt.nav.planner import DepthArcPlanner
+from semexp_bt.nav.pure_pursuit import RegulatedPurePursuit
 from semexp_bt.perception.interface import PerceptionResult
 from sims.scripted_perception import ScriptedPerception
 from trees.loader import parse_mission
@@ -109,7 +109,7 @@ def test_every_mission_override_reaches_the_objects_that_use_it(
             robot=robot,
             perception=ScriptedPerception([NOTHING_SEEN]),
             relevance=CachedRelevance(LexicalRelevance()),
-            planner=DepthArcPlanner(),
+            planner=RegulatedPurePursuit(),
         ),
         config=config,
         instructions=["find the fire extinguisher"],

@@ -16,10 +16,10 @@ from pathlib import Path
 import pytest
 
 from semexp_bt.cli import main as cli_main
+from semexp_bt.files.yaml_source import MAX_FILE_BYTES
 from tests.test_tree_loader import expected_errors
 from trees.declarations import MAX_INCLUDE_DEPTH, MAX_REPORTED_ERRORS, MAX_TREE_DEPTH
 from trees.loader import MissionLoadError, parse_mission, validate_mission
-from trees.yaml_source import MAX_FILE_BYTES
 
 BAD = Path(__file__).resolve().parent / "data" / "trees" / "bad"
 LOCATED = re.compile(r"^[^\n]+:\d+:\d+: [^\n]+$")

@@ -1,4 +1,4 @@
-"""The safe YAML reader (trees/yaml_source.py): each refusal, its one-line message, and what it lets in."""
+"""The safe YAML reader (semexp_bt/files/yaml_source.py): each refusal, its one-line message, and what it lets in."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import pytest
 
 from semexp_bt.app.configuration import read_config_file
 from semexp_bt.core.config import ConfigError
-from trees.yaml_source import (
+from semexp_bt.files.yaml_source import (
     MAX_ALIASES,
     MAX_EXPANDED_NODES,
     MAX_FILE_BYTES,

@@ -21,11 +21,19 @@ import numpy as np
 import py_trees
 import pytest
 
+from robots.go1 import go1_footprint
 from robots.null_robot import NullRobot
 from semexp_bt.app.recorder import TickRecorder
 from semexp_bt.app.runner import MissionComponents, MissionResult, MissionRun, run_mission
 from semexp_bt.app.viewer.frames import WorldFrame
-from semexp_bt.app.viewer.maps import FREE_CELL, OCCUPIED_CELL, UNKNOWN_CELL, map_layer
+from semexp_bt.app.viewer.maps import (
+    FREE_CELL,
+    INSCRIBED_CELL,
+    OCCUPIED_CELL,
+    UNKNOWN_CELL,
+    map_layer,
+    map_version,
+)
 from semexp_bt.app.viewer.observer import ViewObserver, ViewOptions
 from semexp_bt.app.viewer.recording import (
     MANIFEST_FILE,
@@ -40,8 +48,9 @@ from semexp_bt.core.config import DecisionConfig, SemExpConfig
 from semexp_bt.core.decision import decide
 from semexp_bt.core.relevance import CachedRelevance, LexicalRelevance
 from semexp_bt.core.types import NodeState, Pose2D
-from semexp_bt.nav.local_map import OccupancyMap
-from semexp_bt.nav.planner import DepthArcPlanner
+from semexp_bt.nav.costmap import Costmap, CostmapConfig
+from semexp_bt.nav.global_planner import GlobalPlan
+from semexp_bt.nav.pure_pursuit import RegulatedPurePursuit
 from sims.scripted_perception import ScriptedPerception
 from tests.test_executive import TREES, Post, seeing
 from trees.loader import parse_mission
@@ -116,7 +125,7 @@ def run_null_mission(observers: list[Any]) -> MissionResult:
         robot=robot,
         perception=ScriptedPerception([seeing([TARGET])], latency_s=2.5),
         relevance=CachedRelevance(LexicalRelevance()),
-        planner=DepthArcPlanner(),
+        planner=RegulatedPurePursuit(),
     )
     return run_mission(
         mission=parse_mission(TREES / "object_search.yaml"),
@@ -176,7 +185,7 @@ def test_a_saved_view_holds_every_tick_and_the_worlds_frames(tmp_path: Path) -> 
     assert saved.manifest["ticks"] == result.ticks == len(saved.tick_lines)
     assert [json.loads(line)["tick"] for line in saved.tick_lines] == list(range(1, result.ticks + 1))
     tree_names = {n["name"] for n in saved.tree["nodes"]}
-    assert {"Mission", "Search", "Perceive", "Decide", "LocalPlan", "ConfirmTarget"} <= tree_names
+    assert {"Mission", "Search", "Perceive", "Decide", "FollowPath", "ConfirmTarget"} <= tree_names
     assert saved.manifest["frames"] == {"queued": len(sink.frames), "logged": len(sink.frames), "dropped": 0}
     ticks = [f.tick for f in sink.frames]
     assert ticks == sorted(ticks) and ticks[0] == 0 and ticks[-1] == result.ticks
@@ -292,25 +301,30 @@ def test_the_page_server_answers_the_session_and_the_ticks_after_one() -> None:
         server.close()
 
 
-def test_the_map_layer_is_in_ros_order_from_its_corner() -> None:
-    grid = OccupancyMap(origin_xy=(1.0, 2.0))
-    res = grid.config.resolution_m
-    wall = np.array([3.05, 2.45])  # one occupied cell; its neighbours along +x are seen free
-    (i, j) = grid.cell_of(wall)
-    grid.hits[i, j] = 5.0
-    grid.free[i - 3 : i, j] = 5.0
-    grid.frames = 1
-    layer = map_layer({"/local_map": grid})
+def test_the_map_layer_is_the_costmap_in_ros_order_from_its_corner_with_the_path() -> None:
+    costmap = Costmap(CostmapConfig(), footprint=go1_footprint(), origin_xy=(0.0, 0.0))
+    assert map_layer({"/local_map": costmap}) is None  # nothing observed yet
+    lethal = np.zeros((40, 60), dtype=bool)  # 2 m (y) x 3 m (x) at 5 cm
+    lethal[10, 50] = True  # one obstacle cell, 1 m to the right of the path's end
+    costmap.set_known(lethal, lower_left_xy=(1.0, 2.0), resolution_m=0.05)
+    plan = GlobalPlan("ok", np.array([[1.2, 2.5], [2.0, 2.5], [2.9, 2.5]]), (3.0, 2.5), 1.7, costmap.revision)
+    layer = map_layer({"/local_map": costmap, "/global_plan": plan})
     assert layer is not None
-    print(layer.cells)
+    print(layer.cells[::5, ::5])
     rows, cols = np.nonzero(layer.cells == OCCUPIED_CELL)
-    assert (rows.size, cols.size) == (1, 1)
+    assert (rows.tolist(), cols.tolist()) == ([10], [50])
     # Row is y and column is x, counted from the corner of cell (0, 0).
-    centre = np.array(layer.origin_xy) + (np.array([cols[0], rows[0]]) + 0.5) * res
-    np.testing.assert_allclose(centre, grid.centre_of(np.array([i, j])), atol=1e-9)
-    assert (layer.cells[rows[0], cols[0] - 3 : cols[0]] == FREE_CELL).all()
-    assert (layer.cells == UNKNOWN_CELL).sum() == layer.cells.size - 4
-    assert map_layer({"/local_map": OccupancyMap(origin_xy=(0.0, 0.0))}) is None
+    centre = np.array(layer.origin_xy) + (np.array([cols[0], rows[0]]) + 0.5) * layer.resolution_m
+    np.testing.assert_allclose(centre, (1.0 + 50.5 * 0.05, 2.0 + 10.5 * 0.05), atol=1e-9)
+    # The inflation gradient: inscribed next to the obstacle, then falling with the distance (to the cost
+    # at the inflation radius, where the distance field stops).
+    assert layer.cells[10, 48] == INSCRIBED_CELL
+    along = layer.cells[10, 20:45].astype(int)
+    assert (np.diff(along) >= 0).all() and FREE_CELL < along[0] < along[-1] < INSCRIBED_CELL
+    assert UNKNOWN_CELL not in layer.cells
+    np.testing.assert_array_equal(layer.path_xy, plan.path_xy)
+    moved = GlobalPlan("ok", plan.path_xy[::-1], (1.2, 2.5), 1.7, costmap.revision, stamp_s=1.0)
+    assert map_version({"/local_map": costmap, "/global_plan": moved}) != layer.version
 
 
 def test_the_explanation_gives_eq9s_terms_and_their_product_is_the_utility() -> None:

@@ -106,7 +106,7 @@ def test_the_rerun_recording_holds_each_entity_at_the_expected_ticks(
     assert rows[entities.MEMORY_NODES][0] == 1 and len(rows[entities.MEMORY_NODES]) > 3
     assert set(rows[entities.MEMORY_NODES]) | set(rows[entities.SUBGOAL]) == set(rows[entities.MEMORY_GRAPH])
     assert min(np.diff(rows[entities.MAP])) >= 50 and len(rows[entities.MAP]) >= RECORDED_SIM_S / 4
-    assert rows[entities.PLAN_ARC] and rows[entities.TRAJECTORY][0] == 0
+    assert rows[entities.PLAN_TRAJECTORY] and rows[entities.PLAN_PATH] and rows[entities.TRAJECTORY][0] == 0
 
 
 def test_the_mcap_export_has_each_channel_and_decodes_as_ros2(

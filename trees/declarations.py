@@ -52,7 +52,7 @@ MISSION_SETTINGS: dict[str, ParamSpec] = {
 #: The key of the ``mission:`` section that holds SemExpConfig overrides.
 CONFIG_KEY = "config"
 
-# The limits of one mission (each file is also held to trees.yaml_source's caps). They keep checking and
+# The limits of one mission (each file is also held to semexp_bt.files.yaml_source's caps). They keep checking and
 # building in bounded time, memory and stack: the checker, the builder and py_trees' tick all recurse
 # once per tree level.
 

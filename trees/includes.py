@@ -1,6 +1,6 @@
 """Reading a mission's files: the top-level file, its includes (each read once), cycles, sections, arguments.
 
-Every file goes through the one safe reader (``trees.yaml_source``). An include must name a ``.yaml`` or
+Every file goes through the one safe reader (``semexp_bt.files.yaml_source``). An include must name a ``.yaml`` or
 ``.yml`` file, relative to the including file, whose resolved path (symlinks followed) lies inside the
 include roots: the folder of the mission file the user named, and the product's own ``trees/`` folder (so a
 mission anywhere may include the shipped subtrees). An include cycle, a chain deeper than
@@ -18,6 +18,7 @@ from pathlib import Path
 import yaml
 
 from behaviours.spec import ParamSpec
+from semexp_bt.files.yaml_source import YamlSourceError, compose_yaml_file, shorten
 from trees.declarations import (
     FILE_KEYS,
     INCLUDE_KEYS,
@@ -29,7 +30,6 @@ from trees.declarations import (
 )
 from trees.reporting import Item, Reporter, hint
 from trees.substitution import Environment, Substitution, Unknown
-from trees.yaml_source import YamlSourceError, compose_yaml_file, shorten
 
 #: The product's own mission trees: every mission may include the subtrees shipped there.
 SHIPPED_TREES = Path(__file__).resolve().parent

@@ -7,7 +7,7 @@ empty, so a mission never starts half-built. The format is specified in ``docs/t
 
 The work is split by concept:
 
-- ``trees.yaml_source``: the one safe YAML reader (file type, symlinks, size, UTF-8, tabs, nesting,
+- ``semexp_bt.files.yaml_source``: the one safe YAML reader (file type, symlinks, size, UTF-8, tabs, nesting,
   aliases, tags, duplicate keys);
 - ``trees.includes``: the mission's files, includes and their cycles, sections, subtree parameters and
   arguments;

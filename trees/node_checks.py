@@ -16,6 +16,7 @@ import yaml
 
 from behaviours.spec import BLACKBOARD_KEY_PATTERN
 from semexp_bt.core.config import ConfigError, config_from_dict
+from semexp_bt.files.yaml_source import shorten
 from trees.declarations import (
     CONFIG_KEY,
     MAX_TREE_DEPTH,
@@ -30,7 +31,6 @@ from trees.includes import Includes
 from trees.registry import NodeRegistry, NodeSpec, did_you_mean
 from trees.reporting import CheckStopped, Item, Reporter, hint, kind_of
 from trees.substitution import Environment, Substitution, Unknown
-from trees.yaml_source import shorten
 
 #: A key's node and its value's node.
 Entry = tuple[yaml.Node, yaml.Node]

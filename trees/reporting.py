@@ -11,9 +11,9 @@ from typing import Any
 
 import yaml
 
+from semexp_bt.files.yaml_source import YamlSourceError, node_value, shorten
 from trees.declarations import MAX_REPORTED_ERRORS, TreeError, Where
 from trees.registry import did_you_mean
-from trees.yaml_source import YamlSourceError, node_value, shorten
 
 #: A key given with its node and its value's node.
 Item = tuple[str, yaml.Node, yaml.Node]

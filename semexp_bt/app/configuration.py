@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import Any
 
 from semexp_bt.core.config import ConfigError, SemExpConfig, config_from_dict, deep_merge
-from trees.yaml_source import YamlSourceError, load_yaml_file
+from semexp_bt.files.yaml_source import YamlSourceError, load_yaml_file
 
 
 def resolve_config(
@@ -64,7 +64,7 @@ def resolve_config(
 def read_config_file(path: Path) -> dict[str, Any]:
     """The overrides in a YAML config file (top level: any of ``arbitration``, ``memory``, ``decision``).
 
-    The file is read by the product's one safe YAML reader (``trees.yaml_source``): not a regular file,
+    The file is read by the product's one safe YAML reader (``semexp_bt.files.yaml_source``): not a regular file,
     too big, not UTF-8, tabs, deep nesting, alias bombs, duplicate keys and non-plain tags are refused.
 
     Raises:

@@ -29,7 +29,7 @@ ONE_THREAD_ENV = {"OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_
 PARENT_CHECK_S = 1.0
 
 
-class EpisodeTimeout(BaseException):  # noqa: N818 - a BaseException so `except Exception` in an episode cannot swallow it
+class EpisodeTimeout(BaseException):
     """Raised inside a worker when the episode exceeds its wall-time limit."""
 
 
@@ -83,7 +83,7 @@ def run_real_episode(task: EpisodeTask, **options: Any) -> dict[str, Any]:
 
     ``options`` are further ``EpisodeOptions`` fields (a benchmark's faults and probes).
     """
-    if task.relevance == "embedding":
+    if task.relevance in ("embedding", "hybrid"):
         import torch
 
         torch.set_num_threads(1)
@@ -102,6 +102,7 @@ def run_real_episode(task: EpisodeTask, **options: Any) -> dict[str, Any]:
             clearance_m=task.clearance_m,
             max_sim_s=task.max_sim_s,
             keep_trajectory=task.keep_trajectory,
+            instruction=task.instruction,
             **options,
         )
     )

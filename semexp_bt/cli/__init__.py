@@ -19,6 +19,10 @@ from semexp_bt.cli.arguments import OneLineArgumentParser
 #: subcommand -> (module, one-line help). Modules are listed once, here.
 COMMANDS: dict[str, tuple[str, str]] = {
     "run": ("semexp_bt.cli.run", "run one mission tree on a robot backend"),
+    "perceive": (
+        "semexp_bt.cli.perceive",
+        "run the configured real models and the arbitration on one picture",
+    ),
     "replay": ("semexp_bt.cli.replay", "print a per-tick record back"),
     "view": ("semexp_bt.cli.view", "replay a saved mission view in the browser"),
     "export": ("semexp_bt.cli.export", "export a saved mission view as MCAP (ROS 2 messages)"),
@@ -26,6 +30,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "scene": ("semexp_bt.cli.scene", "list scenes or render one"),
     "bench": ("semexp_bt.cli.bench", "benchmarks: core, ..."),
     "gait": ("semexp_bt.cli.gait", "train or inspect the RL gait"),
+    "sim-bridge": (
+        "semexp_bt.cli.sim_bridge",
+        "serve a simulated episode on ROS 2 topics (the Go1 driver's)",
+    ),
 }
 
 

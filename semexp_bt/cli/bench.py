@@ -30,6 +30,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from semexp_bt.app.components import RELEVANCE_SCORERS
 from semexp_bt.cli.arguments import (
     non_negative_int,
     output_file,
@@ -55,10 +56,10 @@ def _add_sweep_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--fidelity", choices=("kinematic", "dynamic"), default="kinematic")
     parser.add_argument(
         "--relevance",
-        choices=("embedding", "lexical"),
+        choices=sorted(RELEVANCE_SCORERS),
         default=None,
-        help="relevance scorer: embedding (offline MiniLM, the method's; the default) or lexical "
-        "(no torch; the default with --smoke)",
+        help="relevance scorer (semexp_bt/app/components.py): embedding (offline MiniLM, the default), "
+        "hybrid (MiniLM or the object lexicon, the larger) or lexical (no torch; the default with --smoke)",
     )
     parser.add_argument(
         "--workers",
@@ -88,7 +89,7 @@ def _add_sweep_options(parser: argparse.ArgumentParser) -> None:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     sub = parser.add_subparsers(
-        dest="kind", metavar="{core,tree,gait,missions,paper,report,compare,faults,soak}"
+        dest="kind", metavar="{core,tree,gait,missions,phrasing,paper,report,compare,faults,soak}"
     )
     sub.required = True
     core = sub.add_parser("core", help="latency of arbitration, memory update and decision")
@@ -126,6 +127,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     missions.add_argument("--no-report", action="store_true", help="skip report.md and plots at the end")
     _add_sweep_options(missions)
+
+    phrasing = sub.add_parser(
+        "phrasing",
+        help="the same episodes with the scene's own instruction and other wordings (SR per class)",
+    )
+    phrasing.add_argument("--scenes", default="all", help="comma-separated scene names, or all (default)")
+    phrasing.add_argument("--seeds", default="0-4", help="e.g. 0-4 (default) or 0,3,5")
+    phrasing.add_argument(
+        "--classes",
+        default="all",
+        help="comma-separated phrasing classes (semexp_bt/bench/phrasings.yaml), or all",
+    )
+    _add_sweep_options(phrasing)
 
     paper = sub.add_parser("paper", help="the paper's protocol: Tables I-V into DIR and docs/results.md")
     paper.add_argument(
@@ -264,6 +278,8 @@ def run(args: argparse.Namespace) -> int:
     try:
         if args.kind == "missions":
             return _missions(args)
+        if args.kind == "phrasing":
+            return _phrasing(args)
         if args.kind == "paper":
             return _paper(args)
         if args.kind == "report":
@@ -274,7 +290,7 @@ def run(args: argparse.Namespace) -> int:
             return _faults(args)
         if args.kind == "soak":
             return _soak(args)
-    except (HarnessError, FileNotFoundError) as exc:
+    except (HarnessError, FileNotFoundError, ValueError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     return 2
@@ -339,6 +355,32 @@ def _missions(args: argparse.Namespace) -> int:
 
         print(f"report: {write_report(args.out)}")
     return 1 if result.errors or result.timeouts else 0
+
+
+def _phrasing(args: argparse.Namespace) -> int:
+    from semexp_bt.bench.phrasing import load_phrasings, phrasing_specs, summarize, write_summary
+    from semexp_bt.bench.store import load_rows
+    from semexp_bt.bench.sweep import parse_seeds
+    from sims.catalogue import list_scenes
+
+    scenes = list_scenes() if args.scenes == "all" else list(_split(args.scenes))
+    classes = list(load_phrasings().classes) if args.classes == "all" else list(_split(args.classes))
+    specs = phrasing_specs(
+        scenes=scenes, seeds=parse_seeds(args.seeds), classes=classes, **_spec_options(args)
+    )
+    result = _sweep(args, specs)
+    summary = summarize(load_rows(args.out))
+    header = {
+        "machine": _machine(),
+        "command": "semexp-bt " + shlex.join(sys.argv[1:])
+        if sys.argv[0].endswith("semexp-bt")
+        else shlex.join(sys.argv),
+        "episodes": f"{result.ran} run by this invocation, {result.skipped} already done, {result.errors} errors",
+        "relevance": _spec_options(args)["relevance"],
+    }
+    page = write_summary(args.out, summary, header=header)
+    print(page.read_text())
+    return 1 if result.errors or result.timeouts or not all(summary["floors"].values()) else 0
 
 
 def _paper(args: argparse.Namespace) -> int:

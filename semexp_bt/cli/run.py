@@ -2,6 +2,14 @@
 
 On the MuJoCo backend (the default) the mission runs in a simulated episode: ``--scene`` and ``--seed``
 choose the world and the start, and the record is scored against the scene's ground truth.
+``--perception models --models PROFILE`` (or ``--vlm-url URL --vlm-model NAME``) sends the rendered
+frames to real models instead of the perception emulator (docs/perception.md).
+
+On the ROS 2 backend (``--backend ros2 [--robot-profile FILE]``) the same tree runs on whatever speaks the
+profile's topics: a real Go1, or ``semexp-bt sim-bridge`` (then ``--perception emulator``, the default,
+reads the bridge's scene catalogue and segmentation). The record is the executive's own (no ground truth;
+the bridge scores the episode); the exit status is 0 for success, 1 for another outcome, 3 when the robot
+halted (a silent or malformed topic, the bridge gone).
 """
 
 from __future__ import annotations
@@ -13,7 +21,14 @@ import time
 from pathlib import Path
 from typing import Any
 
-from semexp_bt.app.components import PLANNERS, RELEVANCE_SCORERS, ROBOT_BACKENDS
+from semexp_bt.app.components import (
+    DEFAULT_PLANNER,
+    PERCEPTION_SOURCES,
+    PLANNERS,
+    RELEVANCE_SCORERS,
+    ROBOT_BACKENDS,
+)
+from semexp_bt.app.models_profile import add_models_arguments, models_profile_from_args
 from semexp_bt.cli.arguments import output_file, print_error, scene_name, seed, strategy_name
 from semexp_bt.core.durable import write_json
 from trees.loader import MissionLoadError
@@ -49,9 +64,21 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--relevance",
         choices=sorted(RELEVANCE_SCORERS),
         default="embedding",
-        help="semantic relevance scorer (embedding: offline MiniLM; lexical: no torch)",
+        help="semantic relevance scorer (embedding: offline MiniLM; lexical: no torch; llm: the profile's LLM)",
     )
-    parser.add_argument("--planner", choices=sorted(PLANNERS), default="depth_arc", help="local planner")
+    parser.add_argument(
+        "--perception",
+        choices=sorted(PERCEPTION_SOURCES),
+        default="emulator",
+        help="perception source (emulator: simulated models; models: the profile's real models)",
+    )
+    add_models_arguments(parser)
+    parser.add_argument(
+        "--robot-profile", type=Path, default=None, help="ros2: robot profile (default: robots/go1/ros2.yaml)"
+    )
+    parser.add_argument(
+        "--planner", choices=sorted(PLANNERS), default=DEFAULT_PLANNER, help="path-following controller"
+    )
     parser.add_argument(
         "--config", type=Path, default=None, help="YAML of config overrides (the last layer; docs/config.md)"
     )
@@ -82,6 +109,8 @@ def run(args: argparse.Namespace) -> int:
     if args.backend in SIMULATED_BACKENDS and args.scene is None:
         print_error(f"--scene is required with --backend {args.backend}")
         return 2
+    if args.backend == "ros2":
+        return _run_ros2(args)
     try:
         record = _run(args)
     except MissionLoadError as exc:  # the mission file (missing, not YAML, invalid): one line per problem
@@ -103,6 +132,61 @@ def run(args: argparse.Namespace) -> int:
     return _report(record)
 
 
+def _run_ros2(args: argparse.Namespace) -> int:
+    """The mission over ROS 2: the executive's record, a one-line summary, the exit status."""
+    import signal
+    from types import FrameType
+
+    from robots.ros2_backend import Ros2Error
+    from semexp_bt.app.configuration import read_config_file
+    from semexp_bt.app.ros2_mission import Ros2MissionOptions, run_ros2_mission
+
+    def on_sigterm(signum: int, frame: FrameType | None) -> None:
+        del signum, frame
+        raise KeyboardInterrupt  # the mission stops the robot and writes its record
+
+    signal.signal(signal.SIGTERM, on_sigterm)
+    try:
+        record = run_ros2_mission(
+            Ros2MissionOptions(
+                mission_path=args.mission,
+                profile_path=args.robot_profile,
+                perception=args.perception,
+                instruction=args.instruction,
+                seed=args.seed,
+                strategy=args.strategy,
+                relevance=args.relevance,
+                planner=args.planner,
+                config_overrides=None if args.config is None else read_config_file(args.config),
+                display=args.display,
+                record_path=args.record,
+            )
+        )
+    except (ValueError, Ros2Error) as exc:  # a bad mission, config or profile; no rclpy; no robot
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    if args.json is not None:
+        write_json(args.json, record)
+    halted = record["halted_by"]
+    if halted is not None and halted["topic"] is not None:
+        print(f"error: robot halted: {halted['topic']}: {halted['reason']}", file=sys.stderr)
+    found = ", ".join(f["label"] for f in record["found_objects"]) or "nothing"
+    print(
+        f"ros2 ({record['profile']}): {record['outcome']} | found {found} | {record['ticks']} ticks"
+        f" | path {record.get('path_length_m', 0.0):.1f} m (odometry) | {len(record.get('decisions', []))} decisions"
+        f" | sim {record.get('sim_time_s', 0.0):.1f} s in {record['wall_time_s']:.1f} s wall"
+    )
+    if record["outcome"] == "success":
+        return 0
+    if record["outcome"] == "halted":
+        # The robot is stopped and the record written; a dead DDS peer can hold the interpreter's teardown
+        # (Fast DDS participants) for seconds, and a halted executive must be gone at once (docs/ros2.md).
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(3)
+    return 1
+
+
 def _run(args: argparse.Namespace) -> dict[str, Any]:
     from semexp_bt.app.configuration import read_config_file
     from semexp_bt.app.episode import EpisodeOptions, run_episode
@@ -117,6 +201,8 @@ def _run(args: argparse.Namespace) -> dict[str, Any]:
             fidelity=args.fidelity,
             strategy=args.strategy,
             relevance=args.relevance,
+            perception=args.perception,
+            models=models_profile_from_args(args),
             planner=args.planner,
             config_overrides=None if args.config is None else read_config_file(args.config),
             display=args.display,

@@ -1,8 +1,8 @@
 """Numeric bounds, written once: the interval a configuration value or a node parameter must lie in.
 
 Three kinds of declaration carry bounds: the method's configuration (``semexp_bt.core.config``), the
-local planner's configuration (``semexp_bt.nav.planner.PlannerConfig``) and a behaviour's parameters
-(``behaviours.spec.ParamSpec``). All three state them as an :class:`Interval` and check a value with it,
+navigation stack's configurations (``semexp_bt.nav.costmap.CostmapConfig``, ``GlobalPlannerConfig``) and
+a behaviour's parameters (``behaviours.spec.ParamSpec``). All three state them as an :class:`Interval` and check a value with it,
 so a bound means the same everywhere and is tested once. The comparison names (``gt``, ``ge``, ``lt``,
 ``le``) are those of annotated-types' ``Interval`` (the convention of pydantic and msgspec); this module
 re-states them rather than importing the library because the core imports the standard library and

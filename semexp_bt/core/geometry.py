@@ -595,3 +595,50 @@ def bearing_in_base(point_xy: Sequence[float], pose: Pose2D) -> float:
     """Bearing of a ``map`` point seen from ``pose``, in ``[-pi, pi)`` (0 ahead, positive to the left)."""
     x, y = world_to_base(point_xy, pose)
     return wrap_angle(math.atan2(y, x))
+
+
+# ----------------------------------------------------------------------------------------------------------
+# Grid lattice
+# ----------------------------------------------------------------------------------------------------------
+
+#: The 16-connected lattice's moves ``(d_row, d_col, cells crossed)``, one of each opposite pair (a graph
+#: built from them is undirected): the four straight and diagonal neighbours and the eight knight moves,
+#: each with the cells a straight segment between the two centres passes through.
+LATTICE_MOVES: tuple[tuple[int, int, tuple[tuple[int, int], ...]], ...] = (
+    (0, 1, ()),
+    (1, 0, ()),
+    (1, 1, ((0, 1), (1, 0))),
+    (1, -1, ((0, -1), (1, 0))),
+    (1, 2, ((0, 1), (1, 1))),
+    (2, 1, ((1, 0), (1, 1))),
+    (1, -2, ((0, -1), (1, -1))),
+    (2, -1, ((1, 0), (1, -1))),
+)
+
+
+def lattice_steps(
+    passable: npt.NDArray[np.bool_],
+) -> list[tuple[int, int, npt.NDArray[np.intp], npt.NDArray[np.intp]]]:
+    """The edges of the 16-connected lattice over a grid's passable cells, one list entry per move of
+    :data:`LATTICE_MOVES`: ``(d_row, d_col, rows, cols)``, the cells ``(rows, cols)`` from which that move
+    ends on a passable cell through passable cells only (the grid's edge counts as impassable).
+
+    Example:
+        >>> steps = lattice_steps(np.ones((2, 2), dtype=bool))
+        >>> [(dr, dc, len(r)) for dr, dc, r, _ in steps if len(r)]
+        [(0, 1, 2), (1, 0, 2), (1, 1, 1), (1, -1, 1)]
+    """
+    rows, cols = passable.shape
+    padded = np.pad(passable, 2, constant_values=False)  # so every offset slice stays in range
+
+    def shifted(dr: int, dc: int) -> npt.NDArray[np.bool_]:
+        return padded[2 + dr : 2 + dr + rows, 2 + dc : 2 + dc + cols]
+
+    steps = []
+    for dr, dc, crossed in LATTICE_MOVES:
+        ok = passable & shifted(dr, dc)
+        for cr, cc in crossed:
+            ok &= shifted(cr, cc)
+        r, c = np.nonzero(ok)
+        steps.append((dr, dc, r, c))
+    return steps

@@ -27,7 +27,7 @@ from typing import Any, Literal
 
 from semexp_bt.core.bounds import field_range
 from semexp_bt.core.config import ConfigError, config_from_dict
-from trees.yaml_source import YamlSourceError, load_yaml_file
+from semexp_bt.files.yaml_source import YamlSourceError, load_yaml_file
 
 PerceptionSourceName = Literal["vlm", "detector", "both"]
 

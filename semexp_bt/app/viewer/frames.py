@@ -80,7 +80,7 @@ class WorldFrame:
             their Eq. 9 terms and utilities, the selected node, the reason).
         subgoal_changed: the subgoal on the board is a new one (``subgoal``, possibly None).
         subgoal: the subgoal on the board when ``subgoal_changed``.
-        plan: a new local planning step (``semexp_bt.nav.planner.PlanResult``).
+        plan: a new controller cycle (``semexp_bt.nav.controller.ControlResult``).
         map: the planner's map, when it changed and a redraw was due.
         events: mission events logged since the previous frame.
         outcome: the mission's outcome, on the last frame only.

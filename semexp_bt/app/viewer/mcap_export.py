@@ -388,16 +388,18 @@ def export_mcap(directory: Path, out_path: Path) -> ExportSummary:
     Raises:
         RecordingError: when the recording is unreadable or holds no world recording.
     """
-    from mcap_ros2.writer import Writer
-    from rosbags.typesys import Stores, get_typestore
-
     from semexp_bt.app.viewer.recording import RecordingError
 
+    # The recording is checked before the optional imports: a wrong directory is named as such
+    # on a machine without the viewer extra too.
     recording = open_recording(directory)
     if recording.world_path is None:
         raise RecordingError(
             f"{directory}: no world recording (world.rrd) to export; record with the viewer extra"
         )
+    from mcap_ros2.writer import Writer
+    from rosbags.typesys import Stores, get_typestore
+
     world = _read_world(recording.world_path)
     store = get_typestore(Stores.ROS2_HUMBLE)
     out_path = Path(out_path)

@@ -227,7 +227,7 @@ class ViewObserver:
         if self.sink is not None:
             try:
                 self.sink.close()
-            except Exception as exc:  # noqa: BLE001 - the mission is over; say what went wrong
+            except Exception as exc:
                 self.worker_errors.append(f"closing the world recording: {exc}")
         summary = {
             "outcome": outcome,
@@ -293,7 +293,7 @@ class ViewObserver:
             try:
                 sink.log(frame)
                 self.frames_logged += 1
-            except Exception as exc:  # noqa: BLE001 - a bad frame must not end the view, nor the mission
+            except Exception as exc:
                 if len(self.worker_errors) < 10:
                     self.worker_errors.append(f"tick {frame.tick}: {type(exc).__name__}: {exc}")
 

@@ -90,7 +90,7 @@ class RecordingWriter:
         }
         _write_json(self.directory / TREE_FILE, tree)
         self._write_manifest()
-        self._ticks = open(self.directory / TICKS_FILE, "w")  # noqa: SIM115 - closed in finish()
+        self._ticks = open(self.directory / TICKS_FILE, "w")
 
     def write_tick(self, line: str) -> None:
         """Append one tick record (a JSON line without its newline)."""

@@ -162,10 +162,10 @@ class TickFeed:
 class _Handler(BaseHTTPRequestHandler):
     server: _PageServer
 
-    def log_message(self, format: str, *args: Any) -> None:  # noqa: A002 - the base class's name
+    def log_message(self, format: str, *args: Any) -> None:
         return  # the mission's output stays readable
 
-    def do_GET(self) -> None:  # noqa: N802 - the base class's name
+    def do_GET(self) -> None:
         url = urlparse(self.path)
         path = url.path
         try:

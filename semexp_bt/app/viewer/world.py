@@ -11,9 +11,10 @@ What is logged where (the entity paths are named once, here, and read back by th
 - ``world/camera`` the camera pose; ``world/camera/image`` its pinhole, with ``rgb`` (JPEG), ``depth``
   (uint16 mm), ``detections`` (the detector's boxes), ``proposals`` (the VLM's points and regions) and
   ``target`` (the arbitration's winner t* with its Eq. 2 score).
-- ``world/map`` the planner's map as a ``GridMap`` (``nav_msgs/OccupancyGrid`` values, RViz colours),
-  through the one adapter :func:`semexp_bt.app.viewer.maps.map_layer`; ``world/plan/arc`` the local
-  planner's chosen arc, ``world/plan/path`` the global path when the planner publishes one.
+- ``world/map`` the costmap as a ``GridMap`` (``nav_msgs/OccupancyGrid`` values with the inflation
+  gradient, RViz colours), through the one adapter :func:`semexp_bt.app.viewer.maps.map_layer`;
+  ``world/plan/path`` the global path planned on it; ``world/plan/trajectory`` the controller's commanded
+  trajectory of the last cycle.
 - ``world/memory/nodes`` the topological memory (radius from C_f, colour from P_explore; every node's
   id, label, C_f, P_explore and visits as extra components), ``world/memory/edges``; ``memory_graph`` the
   same memory as a graph (Rerun's graph view), the chosen subgoal highlighted.
@@ -56,7 +57,7 @@ DETECTIONS = "world/camera/image/detections"
 PROPOSALS = "world/camera/image/proposals"
 TARGET = "world/camera/image/target"
 MAP = "world/map"
-PLAN_ARC = "world/plan/arc"
+PLAN_TRAJECTORY = "world/plan/trajectory"
 PLAN_PATH = "world/plan/path"
 MEMORY_NODES = "world/memory/nodes"
 MEMORY_EDGES = "world/memory/edges"
@@ -90,7 +91,7 @@ DIRECTION_PROPOSAL_COLOUR = (140, 255, 120)
 TARGET_COLOUR = (255, 40, 40)
 ROBOT_COLOUR = (200, 200, 220)
 TRAJECTORY_COLOUR = (90, 170, 255)
-ARC_COLOUR = (60, 230, 120)
+CONTROL_COLOUR = (60, 230, 120)
 PATH_COLOUR = (255, 255, 255)
 EDGE_COLOUR = (150, 150, 150)
 
@@ -151,12 +152,6 @@ def explain_decision(
 def yaw_quaternion_xyzw(yaw_rad: float) -> tuple[float, float, float, float]:
     """The rotation about +z by ``yaw_rad`` as a quaternion ``(x, y, z, w)``."""
     return (0.0, 0.0, math.sin(0.5 * yaw_rad), math.cos(0.5 * yaw_rad))
-
-
-def _base_to_world(points_xy: npt.ArrayLike, pose: Pose2D) -> npt.NDArray[np.float64]:
-    p = np.asarray(points_xy, dtype=float).reshape(-1, 2)
-    c, s = math.cos(pose.yaw_rad), math.sin(pose.yaw_rad)
-    return np.stack([pose.x_m + c * p[:, 0] - s * p[:, 1], pose.y_m + s * p[:, 0] + c * p[:, 1]], axis=1)
 
 
 def default_blueprint() -> Any:
@@ -267,8 +262,8 @@ class WorldLogger:
             self._log_pose(frame.pose, frame.base_twist, frame.command)
         if frame.map is not None:
             self._log_map(frame.map)
-        if frame.plan is not None and self._last_pose is not None:
-            self._log_plan(frame.plan, self._last_pose)
+        if frame.plan is not None:
+            self._log_plan(frame.plan)
         if frame.observation is not None:
             self._log_observation(frame.observation)
         if frame.answer is not None:
@@ -326,22 +321,18 @@ class WorldLogger:
             path = np.column_stack([layer.path_xy, np.full(len(layer.path_xy), 0.05)])
             self.recording.log(PLAN_PATH, rr.LineStrips3D([path], colors=[PATH_COLOUR], radii=[0.03]))
 
-    def _log_plan(self, plan: Any, pose: Pose2D) -> None:
-        from semexp_bt.nav.planner import arc_points
-
+    def _log_plan(self, plan: Any) -> None:
+        """The controller's last cycle (``semexp_bt.nav.controller.ControlResult``): its trajectory in
+        ``map``, labelled with the status and the command."""
         rr = self._rr
-        length = float(getattr(plan, "arc_length_m", 0.0))
+        trajectory = np.asarray(getattr(plan, "trajectory", np.zeros((0, 3))), dtype=float).reshape(-1, 3)
         label = f"{getattr(plan, 'status', '')} v={plan.twist.linear_x_mps:.2f} w={plan.twist.angular_z_radps:.2f}"
-        if length <= 0.0:
-            self.recording.log(PLAN_ARC, rr.Clear(recursive=False))
+        if len(trajectory) < 2:
+            self.recording.log(PLAN_TRAJECTORY, rr.Clear(recursive=False))
             return
-        local = arc_points(
-            curvature_1pm=float(plan.arc_curvature_1pm), arclength_m=np.linspace(0.0, length, 12)
-        )
-        world = _base_to_world(local, pose)
-        strip = np.column_stack([world, np.full(len(world), 0.06)])
+        strip = np.column_stack([trajectory[:, :2], np.full(len(trajectory), 0.06)])
         self.recording.log(
-            PLAN_ARC, rr.LineStrips3D([strip], colors=[ARC_COLOUR], radii=[0.025], labels=[label])
+            PLAN_TRAJECTORY, rr.LineStrips3D([strip], colors=[CONTROL_COLOUR], radii=[0.025], labels=[label])
         )
 
     def _log_observation(self, obs: Observation) -> None:

@@ -193,7 +193,7 @@ def _scored_candidates(
                 source=sources[k],
                 kind=kinds[k],
                 label=labels[k],
-                pixel_px=pixel_l[k],  # type: ignore[arg-type]
+                pixel_px=pixel_l[k],
                 score=score_l[k],
                 normalised_score=norm_l[k],
                 prior=prior_l[k],
@@ -203,10 +203,10 @@ def _scored_candidates(
                 iou=iou_l[k] if is_fused else None,
                 kappa=kappa_l[k],
                 depth_m=depth_l[k],
-                object_pixel_px=p_o_l[k] if has_det else None,  # type: ignore[arg-type]
-                scene_pixel_px=p_s_l[k] if has_prop else None,  # type: ignore[arg-type]
-                box_xyxy_px=box_l[k] if has_det else None,  # type: ignore[arg-type]
-                region_px=region_l[k] if has_prop else None,  # type: ignore[arg-type]
+                object_pixel_px=p_o_l[k] if has_det else None,
+                scene_pixel_px=p_s_l[k] if has_prop else None,
+                box_xyxy_px=box_l[k] if has_det else None,
+                region_px=region_l[k] if has_prop else None,
                 detection_index=d_idx if has_det else None,
                 proposal_index=p_idx if has_prop else None,
             )

@@ -25,7 +25,7 @@ is accepted only when its fully resolved path (every symlink followed) lies insi
 neither ``../`` nor a symlink can lead out.
 
 Example:
-    >>> from trees.yaml_source import load_yaml_file, YamlSourceError
+    >>> from semexp_bt.files.yaml_source import load_yaml_file, YamlSourceError
     >>> try:
     ...     load_yaml_file("/dev/null")
     ... except YamlSourceError as exc:
