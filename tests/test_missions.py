@@ -20,6 +20,7 @@ from pathlib import Path
 
 import pytest
 
+import semexp_bt.app.episode
 import sims.catalogue
 from semexp_bt.app.episode import EpisodeOptions, run_episode
 
@@ -74,7 +75,9 @@ def test_no_success_is_declared_when_only_distractors_are_there(
         )
         return dataclasses.replace(spec, objects=objects)
 
-    monkeypatch.setattr(sims.catalogue, "build_scene", without_visible_goal)
+    # The episode module's own name is patched: it imported build_scene (patching the catalogue's name
+    # alone left the goal where it was, and the test passed only while the robot never came near it).
+    monkeypatch.setattr(semexp_bt.app.episode, "build_scene", without_visible_goal)
     record = run_episode(
         EpisodeOptions(
             mission_path=MISSION,
@@ -85,6 +88,7 @@ def test_no_success_is_declared_when_only_distractors_are_there(
         )
     )
     print(_summary(record))
+    assert record["goal"]["position_m"][2] == -5.0, "the episode ran on the scene with the goal sunk"
     assert record["outcome"] != "success", _summary(record)
     assert record["found_objects"] == []
     assert record["decisions"], "the robot should have explored (decided at least once) before giving up"
