@@ -3,9 +3,10 @@
 A robot that runs all day runs its missions in one process. The soak runs simulated episodes
 (``semexp_bt.app.episode.run_episode``, MuJoCo, the emulator, the embedding scorer) one after another,
 cycling through :data:`DEFAULT_SCENES` with rising seeds, until :data:`DEFAULT_SIM_S` of robot time
-have passed. After each mission (and a garbage collection) it records the process's resident memory,
-the topological memory's size at the mission's end, the mission's tick median and p99, the py_trees
-blackboard's size and the live objects of the kinds a leak would pile up (:func:`watched_types`).
+have passed. After each mission (a garbage collection, then :func:`release_free_heap`) it records the
+process's resident memory (and what it was before the trim), the topological memory's size at the
+mission's end, the mission's tick median and p99, the py_trees blackboard's size and the live objects of
+the kinds a leak would pile up (:func:`watched_types`).
 
 Floors: resident memory after the last mission within :data:`MAX_RSS_GROWTH` of what it was after the first
 mission (the first mission loads the models and builds the caches a process keeps), and the tick p99 not
@@ -44,6 +45,27 @@ def resident_bytes() -> int:
     except (OSError, IndexError, ValueError):
         return 0
     return pages * os.sysconf("SC_PAGE_SIZE")
+
+
+def release_free_heap() -> bool:
+    """Hand the C allocator's free pages back to the OS (glibc ``malloc_trim``; False where there is none).
+
+    A mission frees its scene, its maps and its MuJoCo model when it ends, but glibc keeps the freed
+    pages of its arenas for reuse, so a large scene's peak stays resident after it. A process that runs
+    missions back to back calls this between them; what is resident after it is what is still in use.
+    """
+    import ctypes
+    import ctypes.util
+
+    name = ctypes.util.find_library("c")
+    if name is None:
+        return False
+    try:
+        trim = ctypes.CDLL(name).malloc_trim
+    except (OSError, AttributeError):
+        return False
+    trim(0)
+    return True
 
 
 def watched_types() -> dict[str, type]:
@@ -131,6 +153,8 @@ def run_soak(
         )
         del record["events"], record["decisions"]
         gc.collect()
+        held_mb = round(resident_bytes() / 2**20, 1)
+        release_free_heap()
         elapsed_s += float(record["sim_time_s"])
         entry = {
             "mission": index,
@@ -145,6 +169,7 @@ def run_soak(
             "memory_nodes": probe.nodes,
             "memory_edges": probe.edges,
             "rss_mb": round(resident_bytes() / 2**20, 1),
+            "rss_before_trim_mb": held_mb,
             "blackboard_keys": len(py_trees.blackboard.Blackboard.storage),
             "live_objects": live_objects(),
             "wall_s": round(time.perf_counter() - started, 1),
@@ -153,7 +178,7 @@ def run_soak(
         index += 1
         if progress is not None:
             print(f"[soak] mission {index}: {scene}/{seed} {entry['outcome']}, sim {elapsed_s / 60:.1f} min, "
-                  f"rss {entry['rss_mb']} MB, p99 {entry['tick_p99_ms']} ms, memory {probe.nodes} nodes",
+                  f"rss {entry['rss_mb']} MB ({held_mb} MB before the trim), p99 {entry['tick_p99_ms']} ms, memory {probe.nodes} nodes",
                   file=progress, flush=True)  # fmt: skip
     return summarise(missions)
 
