@@ -9,8 +9,8 @@ from semexp_bt.core.config import SemExpConfig
 from semexp_bt.core.memory import TopologicalMemory
 
 
-def mission(index: int, *, rss_mb: float, p99_ms: float) -> dict:
-    return {"mission": index, "scene": "office", "seed": index, "outcome": "success", "sim_total_s": 600.0 * (index + 1),
+def mission(index: int, *, rss_mb: float, p99_ms: float, scene: str = "office") -> dict:
+    return {"mission": index, "scene": scene, "seed": index, "outcome": "success", "sim_total_s": 600.0 * (index + 1),
             "tick_p99_ms": p99_ms, "memory_nodes": 10, "rss_mb": rss_mb, "live_objects": {"behaviours": 0}}  # fmt: skip
 
 
@@ -22,6 +22,16 @@ def test_the_floors_compare_the_end_with_the_first_mission_and_the_last_third_wi
     slowing = summarise([mission(i, rss_mb=500.0, p99_ms=20.0 * (1 + 0.2 * i)) for i in range(6)])
     assert list(leaking["floors"].values()) == [False, True]
     assert list(slowing["floors"].values()) == [True, False]
+
+
+def test_growth_after_the_first_round_is_measured_from_the_last_scene_s_first_mission() -> None:
+    scenes = ("office", "living_room", "laboratory")
+    sizes = [500.0, 540.0, 550.0, 550.0, 551.0, 561.0]
+    result = summarise(
+        [mission(i, rss_mb=rss, p99_ms=20.0, scene=scenes[i % 3]) for i, rss in enumerate(sizes)]
+    )
+    assert result["rss_growth"] == 0.122 and result["rss_growth_after_first_round"] == 0.02
+    assert not result["floors_met"]  # the floor still counts from the first mission
 
 
 def test_live_objects_count_what_is_alive() -> None:
