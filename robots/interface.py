@@ -80,7 +80,9 @@ class Robot(abc.ABC):
 
         The default says every sensor is as new as the clock: right for a backend that reads its sensors
         when asked (the MuJoCo backend renders the camera on demand). A backend with streaming sensors
-        (ROS 2) overrides it with the stamps of the newest messages.
+        should override it with the stamps of the newest messages; ``robots/ros2_backend.py`` does not yet,
+        so on ROS 2 the SensorHealthGuard sees a silent camera only through its frames' own stamps (while
+        the robot moves) and a silent odometry or IMU topic not at all.
         """
         now = self.now_s()
         return SensorStamps(camera_s=now, odometry_s=now, imu_s=now)
