@@ -89,15 +89,20 @@ def test_lexical_hand_worked_scores() -> None:
 
     # black(1) chair(2) vs grey(1) chair(2): shared chair -> (2 + 2) / (3 + 3), times the colour conflict.
     assert s("find the black chair", "grey chair") == pytest.approx(4 / 6 * ATTRIBUTE_CONFLICT_FACTOR)
-    # black(1) chair(2) vs chair(2): (2 + 2) / (3 + 2); no conflict, the label names no colour.
-    assert s("find the black chair", "chair") == pytest.approx(0.8)
+    # black chair vs chair: the label states no colour, so "black" is neither agreement nor conflict.
+    assert s("find the black chair", "chair") == pytest.approx(1.0)
+    assert s("find the red fire extinguisher", "fire extinguisher") == pytest.approx(1.0)
+    # A size only one side states is dropped too; a modifier that is not an attribute is not.
+    assert s("find the large bus station", "bus station") == pytest.approx(1.0)
+    assert s("find the bucket shelf", "white shelf") == pytest.approx(0.8)
     # shared modifier only: (1 + 1) / (3 + 3).
     assert s("find the black chair", "black sofa") == pytest.approx(1 / 3)
     assert s("find the black chair", "black chair") == 1.0
     assert s("find the fire extinguisher", "extinguisher") == 1.0
     assert s("find the fire extinguisher", "sofa") == 0.0
-    assert s("find the green bin", "trash cans") == pytest.approx(0.8)
-    assert s("find the loading cart", "trolley") == pytest.approx(0.8)
+    assert s("find the green bin", "trash cans") == 1.0  # one concept in the lexicon, no colour said
+    assert s("find the green bin", "blue trash can") == pytest.approx(4 / 6 * ATTRIBUTE_CONFLICT_FACTOR)
+    assert s("find the loading cart", "trolley") == 1.0  # "loading cart" is a lexicon name of a cart
     assert s("find the robot dog", "quadruped robot") == 1.0
     assert s("find the chair", "") == 0.0
 

@@ -176,6 +176,9 @@ RELEVANCE_SCORERS: dict[str, Callable[[ComponentRequest | None], CachedRelevance
     "lexical": _lexical_relevance,
     "llm": _llm_relevance,
 }
+#: The scorer a mission uses unless told otherwise: the sentence embedding or the object lexicon, the
+#: larger (scripts/measure_relevance_phrasing.py: the embedding alone misses most synonyms).
+DEFAULT_RELEVANCE = "hybrid"
 #: Path-following controllers on the costmap (docs/planner.md compares them): name -> builder.
 PLANNERS: dict[str, Callable[[], PathController]] = {"dwb": _dwb_controller, "rpp": _pure_pursuit_controller}
 #: The controller a mission uses unless told otherwise.

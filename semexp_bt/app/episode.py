@@ -27,6 +27,7 @@ import numpy as np
 from robots.interface import Robot
 from semexp_bt.app.components import (
     DEFAULT_PLANNER,
+    DEFAULT_RELEVANCE,
     ComponentRequest,
     build_gait,
     build_perception,
@@ -78,8 +79,9 @@ class EpisodeOptions:
         instruction: overrides the mission's/scene's instruction.
         fidelity: ``kinematic`` or ``dynamic``; None takes the mission's setting.
         strategy: a named strategy (``ours`` by default) from ``semexp_bt/app/strategies.yaml``.
-        relevance: ``embedding`` (default, offline MiniLM), ``lexical`` (no torch) or ``llm`` (needs
-            ``models``).
+        relevance: a name of ``semexp_bt.app.components.RELEVANCE_SCORERS``: ``hybrid`` (the default:
+            offline MiniLM or the object lexicon, the larger), ``embedding``, ``lexical`` (no torch) or
+            ``llm`` (needs ``models``).
         perception: ``emulator`` (default) or ``models`` (the real models of ``models``; the simulation
             then runs at wall-clock pace unless the profile says otherwise).
         models: the models profile for ``perception="models"`` and ``relevance="llm"``.
@@ -106,7 +108,7 @@ class EpisodeOptions:
     instruction: str | None = None
     fidelity: str | None = None
     strategy: str = "ours"
-    relevance: str = "embedding"
+    relevance: str = DEFAULT_RELEVANCE
     perception: str = "emulator"
     models: ModelsProfile | None = None
     planner: str = DEFAULT_PLANNER

@@ -33,6 +33,7 @@ import numpy as np
 
 from semexp_bt.app.components import (
     DEFAULT_PLANNER,
+    DEFAULT_RELEVANCE,
     ComponentRequest,
     build_perception,
     build_planner,
@@ -81,7 +82,7 @@ class Ros2MissionOptions:
     instruction: str | None = None
     seed: int = 0
     strategy: str = "ours"
-    relevance: str = "embedding"
+    relevance: str = DEFAULT_RELEVANCE
     planner: str = DEFAULT_PLANNER
     config_overrides: Mapping[str, Any] | None = None
     display: bool = False

@@ -26,7 +26,7 @@ from pathlib import Path
 from typing import Any
 
 from robots.interface import FIDELITIES
-from semexp_bt.app.components import RELEVANCE_SCORERS
+from semexp_bt.app.components import DEFAULT_RELEVANCE, RELEVANCE_SCORERS
 from semexp_bt.core.metrics import DEFAULT_CLEARANCE_M, DEFAULT_SUCCESS_RADIUS_M
 
 #: Bumped when the row format or the meaning of a key changes (it is part of the config hash).
@@ -130,7 +130,7 @@ class SweepSpec:
     seeds: tuple[int, ...]
     strategies: tuple[str, ...]
     fidelity: str = "kinematic"
-    relevance: str = "embedding"
+    relevance: str = DEFAULT_RELEVANCE
     mission_path: Path = field(default_factory=default_mission_path)
     config_overrides: Mapping[str, Any] = field(default_factory=dict)
     max_sim_s: float = 900.0

@@ -30,7 +30,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from semexp_bt.app.components import RELEVANCE_SCORERS
+from semexp_bt.app.components import DEFAULT_RELEVANCE, RELEVANCE_SCORERS
 from semexp_bt.cli.arguments import (
     non_negative_int,
     output_file,
@@ -307,7 +307,7 @@ def _mission_is_valid(path: Path) -> bool:
 
 
 def _spec_options(args: argparse.Namespace) -> dict[str, Any]:
-    relevance = args.relevance or ("lexical" if getattr(args, "smoke", False) else "embedding")
+    relevance = args.relevance or ("lexical" if getattr(args, "smoke", False) else DEFAULT_RELEVANCE)
     options: dict[str, Any] = {"fidelity": args.fidelity, "relevance": relevance}
     if args.timeout_s is not None:
         options["timeout_s"] = args.timeout_s

@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from semexp_bt.app.components import RELEVANCE_SCORERS
+from semexp_bt.app.components import DEFAULT_RELEVANCE, RELEVANCE_SCORERS
 from semexp_bt.app.models_profile import add_models_arguments, models_profile_from_args
 
 #: Seconds ``perceive`` waits for the models before giving up.
@@ -38,7 +38,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--relevance",
         choices=sorted(RELEVANCE_SCORERS),
-        default="embedding",
+        default=DEFAULT_RELEVANCE,
         help="the scorer that decides which labels name the instructed object (as in `run`)",
     )
     parser.add_argument(

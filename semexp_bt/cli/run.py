@@ -23,6 +23,7 @@ from typing import Any
 
 from semexp_bt.app.components import (
     DEFAULT_PLANNER,
+    DEFAULT_RELEVANCE,
     PERCEPTION_SOURCES,
     PLANNERS,
     RELEVANCE_SCORERS,
@@ -63,8 +64,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--relevance",
         choices=sorted(RELEVANCE_SCORERS),
-        default="embedding",
-        help="semantic relevance scorer (embedding: offline MiniLM; lexical: no torch; llm: the profile's LLM)",
+        default=DEFAULT_RELEVANCE,
+        help=(
+            "semantic relevance scorer (hybrid, the default: MiniLM or the object lexicon, the larger; "
+            "embedding: offline MiniLM; lexical: no torch; llm: the profile's LLM)"
+        ),
     )
     parser.add_argument(
         "--perception",

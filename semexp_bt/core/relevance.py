@@ -103,12 +103,39 @@ class LexicalRelevance:
         return np.array([phrase_similarity(target, label) for label in labels], dtype=float)
 
 
+def _without_unmatched_attributes(
+    tokens_a: tuple[str, ...], tokens_b: tuple[str, ...], head_a: str | None, head_b: str | None
+) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """Drop the colour (or size) words of a phrase when the other phrase states no colour (or size).
+
+    An attribute only one side states neither agrees nor conflicts: a detector's label "fire
+    extinguisher" says nothing of colour, so "the red fire extinguisher" names it; "find the chair" names a
+    "black chair". When both sides state one, it stays and a mismatch is a conflict.
+    """
+    colours_a, sizes_a = attribute_words(tokens_a)
+    colours_b, sizes_b = attribute_words(tokens_b)
+    drop_a = (set() if colours_b else set(colours_a)) | (set() if sizes_b else set(sizes_a))
+    drop_b = (set() if colours_a else set(colours_b)) | (set() if sizes_a else set(sizes_b))
+
+    def kept(tokens: tuple[str, ...], drop: set[str], head: str | None) -> tuple[str, ...]:
+        # The head stays: a phrase that is only an attribute ("the red one") keeps something to compare.
+        return tuple(t for t in tokens if t == head or _attribute_key(t) not in drop)
+
+    return kept(tokens_a, drop_a, head_a), kept(tokens_b, drop_b, head_b)
+
+
+def _attribute_key(token: str) -> str:
+    colours, sizes = attribute_words((token,))
+    return colours[0] if colours else sizes[0] if sizes else ""
+
+
 def phrase_similarity(a: str, b: str) -> float:
     """The lexical relevance of two object phrases (see :class:`LexicalRelevance`), symmetric, in [0, 1]."""
     tokens_a, head_a = canonical_tokens(a)
     tokens_b, head_b = canonical_tokens(b)
     if not tokens_a or not tokens_b:
         return 0.0
+    tokens_a, tokens_b = _without_unmatched_attributes(tokens_a, tokens_b, head_a, head_b)
     wa = _weights(tokens_a, head_a)
     wb = _weights(tokens_b, head_b)
     shared = wa.keys() & wb.keys()
