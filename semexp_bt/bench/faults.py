@@ -35,6 +35,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TextIO
 
+from semexp_bt.app.components import DEFAULT_RELEVANCE
 from semexp_bt.app.runner import MissionRun
 from semexp_bt.bench.rows import STATUS_OK
 from semexp_bt.bench.store import load_rows
@@ -239,7 +240,7 @@ def run_fault_bench(
     seeds: Sequence[int] = DEFAULT_SEEDS,
     cases: Sequence[str] | None = None,
     fidelity: str = "kinematic",
-    relevance: str = "embedding",
+    relevance: str = DEFAULT_RELEVANCE,
     max_sim_s: float = DEFAULT_MAX_SIM_S,
     workers: int = 1,
     timeout_s: float | None = None,

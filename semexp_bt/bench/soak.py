@@ -27,6 +27,7 @@ from typing import Any, TextIO
 
 import py_trees
 
+from semexp_bt.app.components import DEFAULT_RELEVANCE
 from semexp_bt.app.runner import MissionRun
 
 DEFAULT_SCENES = ("office", "living_room", "laboratory")
@@ -120,7 +121,7 @@ def run_soak(
     *,
     sim_s: float = DEFAULT_SIM_S,
     scenes: Sequence[str] = DEFAULT_SCENES,
-    relevance: str = "embedding",
+    relevance: str = DEFAULT_RELEVANCE,
     mission_path: Path | None = None,
     max_missions: int | None = None,
     progress: TextIO | None = sys.stderr,
@@ -134,7 +135,7 @@ def run_soak(
     from semexp_bt.app.episode import EpisodeOptions, run_episode
     from semexp_bt.bench.sweep import default_mission_path
 
-    if relevance == "embedding":
+    if relevance in ("embedding", "hybrid"):
         import torch
 
         torch.set_num_threads(1)

@@ -209,7 +209,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--cases", default=None, help="comma-separated cases (default: all; docs/reliability.md)"
     )
     faults.add_argument("--fidelity", choices=("kinematic", "dynamic"), default="kinematic")
-    faults.add_argument("--relevance", choices=("embedding", "lexical"), default="embedding")
+    faults.add_argument("--relevance", choices=sorted(RELEVANCE_SCORERS), default=DEFAULT_RELEVANCE)
     faults.add_argument(
         "--max-sim-s", type=positive_seconds, default=None, help="cap per episode (s; default 240)"
     )
@@ -229,7 +229,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     soak.add_argument(
         "--scenes", type=_scene_list, default=None, help="comma-separated scenes (default: the soak's three)"
     )
-    soak.add_argument("--relevance", choices=("embedding", "lexical"), default="embedding")
+    soak.add_argument("--relevance", choices=sorted(RELEVANCE_SCORERS), default=DEFAULT_RELEVANCE)
     soak.add_argument("--max-missions", type=positive_int, default=None, help="stop after this many missions")
 
 
