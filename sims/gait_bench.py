@@ -513,12 +513,34 @@ def floors_met(result: dict[str, Any]) -> dict[str, bool]:
 
 
 def run_gait_bench(
-    *, checkpoint: Path | str | None = None, seeds: int = 10, quick: bool = False, seed: int = 0
+    *,
+    checkpoint: Path | str | None = None,
+    seeds: int = 10,
+    quick: bool = False,
+    seed: int = 0,
+    contact_only: bool = False,
 ) -> dict[str, Any]:
-    """Benchmark the policy (shipped checkpoint when None) and the reference trot; returns the JSON record."""
+    """Benchmark the policy (shipped checkpoint when None) and the reference trot; returns the JSON record.
+
+    ``contact_only``: only the policy's contact section (to compare checkpoints under contact quickly).
+    """
     policy = load_policy(checkpoint)
     reference = GaitPolicy.reference(policy.config.trot)
     started = time.perf_counter()
+    if contact_only:
+        contact = {"contact": _contact(policy, seeds=seeds, quick=quick, seed=seed)}
+        return {
+            "kind": "gait_contact",
+            "checkpoint": str(checkpoint) if checkpoint is not None else "robots/gait_checkpoints",
+            "checkpoint_info": policy.config.info,
+            "seeds": seeds,
+            "quick": quick,
+            "seed": seed,
+            "floors": FLOORS,
+            "gaits": {"policy": contact, "reference": {}},
+            "floors_met": {"no_contact_falls": contact["contact"]["falls"] <= FLOORS["contact_falls"]},
+            "wall_s": round(time.perf_counter() - started, 1),
+        }
     gaits = {
         "policy": bench_one(policy, seeds=seeds, quick=quick, seed=seed),
         # The reference trot falls on open ground already: the contact section is the policy's only.
@@ -572,8 +594,19 @@ def format_table(result: dict[str, Any]) -> str:
         lines.append(f"{label:30s} {cells[0]:>10s} {cells[1]:>10s}")
     met = ", ".join(f"{k}={'yes' if v else 'NO'}" for k, v in result["floors_met"].items())
     lines.append(f"policy floors: {met}")
-    minutes = result["gaits"]["policy"]["random_commands"]["minutes_per_seed"]
-    lines.append(f"seeds={result['seeds']} x {minutes} min random commands; wall {result['wall_s']} s")
+    policy = result["gaits"]["policy"]
+    if "random_commands" in policy:
+        minutes = policy["random_commands"]["minutes_per_seed"]
+        lines.append(f"seeds={result['seeds']} x {minutes} min random commands; wall {result['wall_s']} s")
+    if "contact" in policy:
+        course = policy["contact"]["obstacle_course"]
+        fell = [
+            c for k in ("run_in", "turn_beside", "bump_and_turn") for c in policy["contact"][k]["fell_cases"]
+        ]
+        lines.append(
+            f"obstacle course: {course['seeds']} x {course['minutes_per_seed']} min, "
+            f"{course['contact_share']:.0%} of steps in contact; cases that fell: {', '.join(fell) or 'none'}"
+        )
     return "\n".join(lines)
 
 

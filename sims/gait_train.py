@@ -291,6 +291,13 @@ class PPOTrainer:
         self.init_from = state.get("init_from")
 
     def save(self) -> None:
+        """Export the policy, score it when due (keeping the best), then write ``state.pt`` (resumable)."""
+        self.export(self.out_dir / POLICY_DIR)
+        if self.config.select_every and self.iteration % self.config.select_every == 0:
+            score = selection_score(self.out_dir / POLICY_DIR)
+            if score < self.best_score:
+                self.best_score = score
+                self.export(self.out_dir / BEST_POLICY_DIR, extra_info={"selection_score": round(score, 4)})
         state = {
             "alg": self.alg.save(),
             "learning_rate": self.alg.learning_rate,
@@ -305,12 +312,6 @@ class PPOTrainer:
         tmp = self.out_dir / (STATE_FILE + ".tmp")
         torch.save(state, tmp)
         tmp.replace(self.out_dir / STATE_FILE)
-        self.export(self.out_dir / POLICY_DIR)
-        if self.config.select_every and self.iteration % self.config.select_every == 0:
-            score = selection_score(self.out_dir / POLICY_DIR)
-            if score < self.best_score:
-                self.best_score = score
-                self.export(self.out_dir / BEST_POLICY_DIR, extra_info={"selection_score": round(score, 4)})
 
     def numpy_actor(self) -> NumpyActor:
         """The current mean policy as the run-time numpy actor (the same normalisation and clip)."""
