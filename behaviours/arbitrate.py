@@ -23,6 +23,7 @@ import py_trees
 from behaviours.base import SemExpBehaviour
 from behaviours.spec import param
 from semexp_bt.core.evidence import arbitrate
+from semexp_bt.core.relevance import RELATED_RELEVANCE
 
 
 class Arbitrate(SemExpBehaviour):
@@ -30,7 +31,12 @@ class Arbitrate(SemExpBehaviour):
     WRITES = ("arbitration", "target")
 
     align_threshold: float = param(
-        "float", doc="relevance at which a label counts as the instructed object", default=0.6, ge=0.0, le=1.0
+        "float",
+        doc="relevance at which a label counts as the instructed object in the arbitration (the core's "
+        "RELATED_RELEVANCE: a related label is target evidence; only confirmation asks more)",
+        default=RELATED_RELEVANCE,
+        ge=0.0,
+        le=1.0,
     )
 
     def is_aligned(self, label: str) -> bool:

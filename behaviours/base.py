@@ -23,11 +23,8 @@ import py_trees
 from behaviours.services import MissionServices, mission_services
 from behaviours.spec import BlackboardKey, BuildContext, ParamSpec
 from blackboard.schema import SCHEMA, checked_write, key_access, register_keys
+from semexp_bt.core.relevance import NAMES_OBJECT_RELEVANCE
 from semexp_bt.core.types import Twist
-
-#: Relevance at which a label names the instructed object itself (the instructed label or a synonym), not
-#: merely something like it ('shelf' for 'bucket shelf').
-INSTRUCTED_OBJECT_RELEVANCE = 0.9
 
 #: Names a parameter cannot take: py_trees' instance state, the base class's, and the constructor's own
 #: keywords.
@@ -134,9 +131,10 @@ class SemExpBehaviour(py_trees.behaviour.Behaviour):
         """Write a schema-checked value."""
         checked_write(self.board, key, value)
 
-    def names_instructed_object(self, label: str, *, threshold: float) -> bool:
+    def names_instructed_object(self, label: str, *, threshold: float = NAMES_OBJECT_RELEVANCE) -> bool:
         """Whether ``label``'s relevance to the current instruction reaches ``threshold`` (needs
-        ``instruction`` in READS)."""
+        ``instruction`` in READS); the default is the core's one threshold at which a label names the
+        instructed object itself."""
         return self.services.relevance.score(instruction=self.read("instruction"), label=label) >= threshold
 
     def now_s(self) -> float:

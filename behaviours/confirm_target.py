@@ -56,11 +56,12 @@ from typing import Any
 import numpy as np
 import py_trees
 
-from behaviours.base import INSTRUCTED_OBJECT_RELEVANCE, SemExpBehaviour
+from behaviours.base import SemExpBehaviour
 from behaviours.spec import param
-from semexp_bt.core.evidence import arbitrate, candidate_box
+from semexp_bt.core.evidence import ArbitrationResult, arbitrate, candidate_box
 from semexp_bt.core.geometry import back_project, object_surface_depth
-from semexp_bt.core.types import Observation
+from semexp_bt.core.relevance import NAMES_OBJECT_RELEVANCE
+from semexp_bt.core.types import Observation, SceneEvidence
 from semexp_bt.perception.interface import PerceptionJob
 
 
@@ -126,7 +127,7 @@ class ConfirmTarget(SemExpBehaviour):
         "float",
         doc="relevance at which a label counts as the instructed object (0.9: the instructed label or a synonym; "
         "a partial match such as 'shelf' for 'bucket shelf' is a distractor, never a success)",
-        default=INSTRUCTED_OBJECT_RELEVANCE,
+        default=NAMES_OBJECT_RELEVANCE,
         ge=0.0,
         le=1.0,
     )
@@ -189,7 +190,12 @@ class ConfirmTarget(SemExpBehaviour):
     def _aligned(self, label: str) -> bool:
         return self.names_instructed_object(label, threshold=self.align_threshold)
 
-    def _vote(self, arbitration, scene, observation) -> tuple[str, np.ndarray] | None:  # type: ignore[no-untyped-def]
+    def _vote(
+        self,
+        arbitration: ArbitrationResult | None,
+        scene: SceneEvidence | None,
+        observation: Observation | None,
+    ) -> tuple[str, np.ndarray] | None:
         """The label and world position of the best candidate in this view that votes for the target
         (see the module docstring), or None."""
         if arbitration is None or observation is None:
@@ -197,7 +203,9 @@ class ConfirmTarget(SemExpBehaviour):
         pose = self.services.robot.base_pose()
         patch = self.services.config.arbitration.depth_patch_px
 
-        def nearby_point(pixel, box) -> np.ndarray | None:  # type: ignore[no-untyped-def]
+        def nearby_point(
+            pixel: tuple[float, float], box: tuple[float, float, float, float] | None
+        ) -> np.ndarray | None:
             depth = object_surface_depth(observation.depth_m, pixel, box, patch)
             if depth is None:
                 return None

@@ -48,7 +48,7 @@ from behaviours.spec import param
 from semexp_bt.core.config import DecisionConfig
 from semexp_bt.core.decision import REASON_EMPTY, DecisionResult, decide
 from semexp_bt.core.decision_baselines import BASELINE_DECISIONS, select_subgoal
-from semexp_bt.core.types import NodeState
+from semexp_bt.core.types import NodeState, Subgoal
 
 
 class Decide(SemExpBehaviour):
@@ -138,6 +138,8 @@ class Decide(SemExpBehaviour):
         other baselines (HOV-SG, nearest frontier, oracle) choose differently over the same candidates.
         """
         kind = self.services.strategy.get("decision", "utility")
+        if kind == "oracle_nav":
+            return self._privileged_goal()
         if kind not in BASELINE_DECISIONS:
             return decide(nodes=nodes, instruction=instruction, relevance=self.services.relevance,
                           travel_costs=costs, config=config)  # fmt: skip
@@ -155,6 +157,19 @@ class Decide(SemExpBehaviour):
             goal_distances = {n.node_id: distance((n.position_m[0], n.position_m[1])) for n in nodes}
         return select_subgoal(kind, nodes=nodes, instruction=instruction, relevance=self.services.relevance,
                               travel_costs=costs, config=config, goal_distances_m=goal_distances)  # fmt: skip
+
+    def _privileged_goal(self) -> DecisionResult:
+        """``oracle_nav`` (PRIVILEGED, the execution layer's ceiling): the true goal is the subgoal."""
+        goal_xy = self.services.privileged_goal_xy
+        if goal_xy is None:
+            raise RuntimeError("strategy 'oracle_nav' needs services.privileged_goal_xy (set by the runner)")
+        subgoal = Subgoal(node_id=PRIVILEGED_GOAL_NODE_ID, position_m=(goal_xy[0], goal_xy[1], 0.0),
+                          label="goal (privileged)", utility=1.0)  # fmt: skip
+        return DecisionResult(subgoal=subgoal, candidates=(), reason="privileged goal")
+
+
+#: ``node_id`` of the privileged goal subgoal of ``oracle_nav`` (no memory node holds it).
+PRIVILEGED_GOAL_NODE_ID = -1
 
 
 def _straight_line_distance(xy: tuple[float, float], *, goal_xy: tuple[float, float]) -> float:

@@ -26,6 +26,7 @@ import py_trees
 
 from behaviours.base import SemExpBehaviour
 from behaviours.spec import param
+from semexp_bt.core.clock import has_elapsed
 from semexp_bt.core.types import Twist
 
 
@@ -39,7 +40,7 @@ class Gait(SemExpBehaviour):
     def update(self) -> py_trees.common.Status:
         twist = self.read("cmd_twist", Twist.zero())
         stamp = self.read("cmd_stamp_s", -1e9)
-        if self.now_s() - stamp > self.command_timeout_s:
+        if has_elapsed(since_s=stamp, now_s=self.now_s(), duration_s=self.command_timeout_s):
             twist = Twist.zero()
         robot = self.services.robot
         if self.services.gait is None:

@@ -26,6 +26,7 @@ import py_trees
 
 from behaviours.base import SemExpBehaviour
 from behaviours.spec import param
+from semexp_bt.core.clock import has_elapsed
 
 
 class MissionBudgetGuard(SemExpBehaviour):
@@ -50,9 +51,10 @@ class MissionBudgetGuard(SemExpBehaviour):
 
     def update(self) -> py_trees.common.Status:
         assert self._start_s is not None
-        elapsed = self.now_s() - self._start_s
+        now = self.now_s()
+        elapsed = now - self._start_s
         self.feedback_message = f"{elapsed:.0f}/{self.budget_s:.0f} s"
-        if elapsed < self.budget_s:
+        if not has_elapsed(since_s=self._start_s, now_s=now, duration_s=self.budget_s):
             return py_trees.common.Status.RUNNING
         self.services.robot.stop()
         self.write("mission_outcome", "budget_exceeded")

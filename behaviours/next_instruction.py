@@ -19,7 +19,7 @@ from __future__ import annotations
 import py_trees
 
 from behaviours.base import SemExpBehaviour
-from semexp_bt.core.relevance import instruction_target
+from semexp_bt.core.instruction import instruction_target
 
 
 class NextInstruction(SemExpBehaviour):

@@ -32,6 +32,7 @@ import py_trees
 
 from behaviours.base import SemExpBehaviour
 from behaviours.spec import param
+from semexp_bt.core.clock import has_elapsed
 from semexp_bt.core.types import Twist
 from semexp_bt.perception.interface import PerceptionJob
 
@@ -66,7 +67,7 @@ class Perceive(SemExpBehaviour):
 
     def update(self) -> py_trees.common.Status:
         robot = self.services.robot
-        if self.now_s() - self._started_s > self.timeout_s:
+        if has_elapsed(since_s=self._started_s, now_s=self.now_s(), duration_s=self.timeout_s):
             self.feedback_message = "perception timed out"
             self.services.log_event("perception_timeout")
             return py_trees.common.Status.FAILURE

@@ -1,13 +1,13 @@
 """RateLimiter: tick a child at most at a given rate of backend time, holding its last status between.
 
 The tree ticks at the gait rate (50 Hz in lockstep simulation) while some stages should run slower
-(the local planner at 12 Hz, paper Sec. III-F); this decorator gives a subtree its own rate without a
+(the path-following controller at 12 Hz, paper Sec. III-F); this decorator gives a subtree its own rate without a
 second tree or a thread.
 
 Semantics (a decorator):
 
 - On a tick when the child is due (the first tick, the first after a halt, then on the grid
-  ``first + k / rate_hz``): the child is ticked and its status (SUCCESS, FAILURE or RUNNING) is returned.
+  ``first + k / rate_hz``; due by the one clock rule of ``semexp_bt.core.clock``): the child is ticked and its status (SUCCESS, FAILURE or RUNNING) is returned.
 - On a tick in between: the child is not touched and its last status is returned again.
 - Halted: the held status is dropped, so the next tick reaches the child at once.
 
@@ -15,11 +15,11 @@ Reads and writes no blackboard key (its child may); reads the backend clock (``B
 
 Example:
     - type: RateLimiter
-      name: Plan12Hz
+      name: Follow12Hz
       params: {rate_hz: 12}
       children:
-        - type: LocalPlan
-          name: LocalPlan
+        - type: FollowPath
+          name: FollowPath
 """
 
 from __future__ import annotations
@@ -31,22 +31,7 @@ import py_trees
 from py_trees.common import Status
 
 from behaviours.spec import BuildContext, ParamSpec
-
-#: Clock comparisons tolerate this much float error (s): 0.02 * 50 ticks must reach a 1 s deadline.
-CLOCK_TOLERANCE_S = 1e-9
-
-
-def next_due_s(*, due_s: float | None, now_s: float, period_s: float) -> float:
-    """When work due at ``due_s`` and done at ``now_s`` is next due: on the grid ``due_s + k * period_s``
-    (so the long-run rate is ``1 / period_s`` even when the caller's tick does not divide it), restarted
-    from ``now_s`` after a stall of a whole period (no burst of catch-up). ``due_s`` None: first time.
-
-    Example: a 4 Hz job served by a 12 Hz cycle quantised to 20 ms ticks, due at 0.25 s and run at
-    0.26 s, is next due at 0.50 s, not 0.51 s.
-    """
-    if due_s is None or now_s - due_s >= period_s:
-        return now_s + period_s
-    return due_s + period_s
+from semexp_bt.core.clock import is_due, next_due_s
 
 
 class RateLimiter(py_trees.decorators.Decorator):
@@ -82,7 +67,7 @@ class RateLimiter(py_trees.decorators.Decorator):
         if (
             self._held_status is None
             or self._next_due_s is None
-            or now_s >= self._next_due_s - CLOCK_TOLERANCE_S
+            or is_due(now_s=now_s, due_s=self._next_due_s)
         ):
             self._next_due_s = next_due_s(due_s=self._next_due_s, now_s=now_s, period_s=self.period_s)
             self.child_ticks += 1

@@ -27,6 +27,7 @@ import py_trees
 
 from behaviours.base import SemExpBehaviour
 from behaviours.spec import param
+from semexp_bt.core.clock import has_elapsed
 from semexp_bt.core.geometry import wrap_angle
 from semexp_bt.core.types import Twist
 
@@ -65,7 +66,7 @@ class RotateInPlace(SemExpBehaviour):
         if abs(remaining) < math.radians(2.0):
             self.command(Twist.zero())
             return py_trees.common.Status.SUCCESS
-        if self.now_s() - self._started_s > self.timeout_s:
+        if has_elapsed(since_s=self._started_s, now_s=self.now_s(), duration_s=self.timeout_s):
             self.command(Twist.zero())
             return py_trees.common.Status.FAILURE
         # Slow down over the last 20 degrees so the gait does not overshoot.

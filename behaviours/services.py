@@ -17,7 +17,7 @@ import numpy as np
 from robots.interface import Robot
 from semexp_bt.core.config import SemExpConfig
 from semexp_bt.core.relevance import RelevanceScorer
-from semexp_bt.nav.planner import LocalPlanner
+from semexp_bt.nav.controller import PathController
 from semexp_bt.perception.interface import PerceptionSource
 
 
@@ -52,7 +52,7 @@ class MissionServices:
         perception: the evidence source (emulator, real adapters, or a fake).
         relevance: the semantic relevance scorer S in [0, 1] (cached).
         config: the method's hyperparameters.
-        planner: the obstacle-aware local planner.
+        planner: the path-following controller (``semexp_bt.app.components.PLANNERS``).
         gait: a callable ``(robot, twist) -> None`` that realises a twist (joint targets from the RL policy
             in dynamic fidelity); None means the backend executes the twist itself.
         rng: the mission's random generator (seeded by the runner).
@@ -67,13 +67,15 @@ class MissionServices:
             for the ``oracle`` strategy only (an upper bound, never a method), None otherwise.
         privileged_goal_distance: PRIVILEGED, ``(x, y) -> true geodesic distance (m)`` to the goal's
             success region; set with ``privileged_goal_xy`` when the simulator can provide it.
+        privileged_standpoint_xy: PRIVILEGED, for ``oracle_nav``: a free point within the success radius of
+            the goal object, at the end of the true shortest path from the start.
     """
 
     robot: Robot
     perception: PerceptionSource
     relevance: RelevanceScorer
     config: SemExpConfig
-    planner: LocalPlanner
+    planner: PathController
     gait: Callable[[Robot, Any], None] | None = None
     rng: np.random.Generator = field(default_factory=lambda: np.random.default_rng(0))
     timings: StageTimings = field(default_factory=StageTimings)
@@ -84,6 +86,7 @@ class MissionServices:
     place_labels: set[str] = field(default_factory=set)
     privileged_goal_xy: tuple[float, float] | None = None
     privileged_goal_distance: Callable[[tuple[float, float]], float] | None = None
+    privileged_standpoint_xy: tuple[float, float] | None = None
 
     def clock(self) -> float:
         """The backend clock (sim time in MuJoCo, ROS time on ROS 2)."""

@@ -20,8 +20,8 @@ Example:
       name: Execute
       params: {duration_s: 40}
       children:
-        - type: LocalPlan
-          name: LocalPlan
+        - type: FollowPath
+          name: FollowPath
 """
 
 from __future__ import annotations
@@ -33,6 +33,7 @@ import py_trees
 from py_trees.common import Status
 
 from behaviours.spec import BuildContext, ParamSpec
+from semexp_bt.core.clock import is_due
 
 
 class SimTimeout(py_trees.decorators.Decorator):
@@ -64,7 +65,7 @@ class SimTimeout(py_trees.decorators.Decorator):
 
     def tick(self) -> Iterator[py_trees.behaviour.Behaviour]:
         # Checked before the child ticks: a child past its deadline must not act once more.
-        if self.status == Status.RUNNING and self._clock() >= self._deadline_s:
+        if self.status == Status.RUNNING and is_due(now_s=self._clock(), due_s=self._deadline_s):
             self.feedback_message = f"timed out after {self.duration_s:g} s"
             self.stop(Status.FAILURE)  # Decorator.stop invalidates the running child
             yield self

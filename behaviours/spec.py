@@ -29,6 +29,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Literal
 
+from semexp_bt.core.bounds import Interval
 from semexp_bt.core.config import SemExpConfig
 
 if TYPE_CHECKING:
@@ -190,15 +191,10 @@ class ParamSpec:
         return value, None
 
     def _range_problem(self, value: float) -> str | None:
-        for op, bound, ok in (
-            (">", self.gt, lambda v, b: v > b),
-            (">=", self.ge, lambda v, b: v >= b),
-            ("<", self.lt, lambda v, b: v < b),
-            ("<=", self.le, lambda v, b: v <= b),
-        ):
-            if bound is not None and not ok(value, bound):
-                return f"value {value!r} out of range: must be {op} {_number(bound)}"
-        return None
+        broken = Interval(gt=self.gt, ge=self.ge, lt=self.lt, le=self.le).broken_bound(value)
+        if broken is None:
+            return None
+        return f"value {value!r} out of range: must be {broken[0]} {_number(broken[1])}"
 
 
 def param(kind: ParamKind, doc: str, **options: Any) -> Any:

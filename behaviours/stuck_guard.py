@@ -13,8 +13,9 @@ Semantics:
   spend the whole execute timeout there.
 - Halted: nothing to undo; the next start restarts both windows.
 
-Reads ``subgoal``; writes nothing (the execute branch's failure hands over to recovery). It lives beside
-the planner in the execute branch, and restarts its windows each time the branch starts.
+Reads ``subgoal``; writes ``nav_failure`` (``stuck``) when it fails, so that recovery knows why (the
+execute branch's failure hands over to recovery). It lives beside the planner in the execute branch,
+and restarts its windows each time the branch starts.
 
 Example:
     - type: StuckGuard
@@ -31,10 +32,13 @@ import py_trees
 
 from behaviours.base import SemExpBehaviour
 from behaviours.spec import param
+from semexp_bt.core.clock import has_elapsed
+from semexp_bt.core.geometry import wrap_angle
 
 
 class StuckGuard(SemExpBehaviour):
     READS = ("subgoal",)
+    WRITES = ("nav_failure",)
 
     window_s: float = param("float", doc="progress is judged over this window, s", default=8.0, gt=0.0)
     min_progress_m: float = param("float", doc="least travel within the window, m", default=0.25, gt=0.0)
@@ -73,7 +77,7 @@ class StuckGuard(SemExpBehaviour):
         if self._approach is None or distance <= self._approach[1] - self.min_approach_m:
             self._approach = (self.now_s(), distance)
             return False
-        return self.now_s() - self._approach[0] > self.approach_window_s
+        return has_elapsed(since_s=self._approach[0], now_s=self.now_s(), duration_s=self.approach_window_s)
 
     def update(self) -> py_trees.common.Status:
         if self._no_approach():
@@ -82,16 +86,18 @@ class StuckGuard(SemExpBehaviour):
             )
             best_distance_m = self._approach[1] if self._approach is not None else float("nan")
             self.services.log_event("no_progress", distance_m=round(best_distance_m, 3))
+            self.write("nav_failure", "stuck")
             return py_trees.common.Status.FAILURE
         t0, x0, y0, yaw0 = self._anchor
         pose = self.services.robot.base_pose()
         moved = math.hypot(pose.x_m - x0, pose.y_m - y0)
-        turned = abs(math.remainder(pose.yaw_rad - yaw0, math.tau))
+        turned = abs(wrap_angle(pose.yaw_rad - yaw0))
         if moved >= self.min_progress_m or turned >= self.min_turn_rad:
             self._reset()
             return py_trees.common.Status.RUNNING
-        if self.now_s() - t0 > self.window_s:
+        if has_elapsed(since_s=t0, now_s=self.now_s(), duration_s=self.window_s):
             self.feedback_message = f"stuck: {moved:.2f} m in {self.window_s:.0f} s"
             self.services.log_event("stuck", moved_m=round(moved, 3))
+            self.write("nav_failure", "stuck")
             return py_trees.common.Status.FAILURE
         return py_trees.common.Status.RUNNING

@@ -40,15 +40,20 @@ Example:
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any, NamedTuple
 
 import numpy as np
 import py_trees
 
-from behaviours.base import INSTRUCTED_OBJECT_RELEVANCE, SemExpBehaviour
+from behaviours.base import SemExpBehaviour
 from behaviours.spec import param
 from semexp_bt.core.evidence import calibrate, candidate_box
 from semexp_bt.core.geometry import back_project, object_surface_depth
+from semexp_bt.core.memory import TopologicalMemory
+from semexp_bt.core.relevance import RELATED_RELEVANCE
+from semexp_bt.core.types import FloatArray, Pose2D
+from semexp_bt.nav.costmap import Costmap
 from semexp_bt.nav.frontier import depth_frontiers
 
 Box = tuple[float, float, float, float]
@@ -127,7 +132,7 @@ class UpdateMemory(SemExpBehaviour):
     max_frontiers: int = param("int", doc="at most this many frontiers per view", default=2, ge=0)
     map_frontier_confidence: float = param(
         "float",
-        doc="confidence of a node at an occupancy-map frontier (0: no map frontiers)",
+        doc="confidence of a node at an costmap frontier (0: no map frontiers)",
         default=0.6,
         ge=0.0,
         le=1.0,
@@ -144,7 +149,7 @@ class UpdateMemory(SemExpBehaviour):
 
     #: A place node stands at least this far from the camera, m.
     min_place_depth_m = 0.5
-    #: Eq. 7 on the occupancy map: place nodes within this radius of the robot are checked, m ...
+    #: Eq. 7 on the costmap: place nodes within this radius of the robot are checked, m ...
     map_observe_radius_m = 6.0
     #: ... and decay once the map knows this share of their 1 m neighbourhood.
     seen_fraction = 0.85
@@ -282,11 +287,11 @@ class UpdateMemory(SemExpBehaviour):
         self.feedback_message = f"{len(memory)} nodes; " + ", ".join(outcomes[:4])
         return py_trees.common.Status.SUCCESS
 
-    def _revive(self, memory, node_id: int, label: str, score: float) -> list[str]:  # type: ignore[no-untyped-def]
+    def _revive(self, memory: TopologicalMemory, node_id: int, label: str, score: float) -> list[str]:
         """Revival (see the module docstring): strong evidence for the instructed object restores its node."""
         if score < self.revive_min_score or self._revivals.get(node_id, 0) >= self.max_revivals:
             return []
-        if not self.names_instructed_object(label, threshold=INSTRUCTED_OBJECT_RELEVANCE):
+        if not self.names_instructed_object(label):
             return []
         state = memory.node(node_id)
         if not memory.raise_potential(node_id=node_id, at_least=state.confidence):
@@ -296,10 +301,10 @@ class UpdateMemory(SemExpBehaviour):
 
     def _instructed(self, label: str) -> bool:
         """Whether ``label`` names what the instruction asks for (only such evidence may relabel a node)."""
-        return self.names_instructed_object(label, threshold=0.6)
+        return self.names_instructed_object(label, threshold=RELATED_RELEVANCE)
 
     @staticmethod
-    def _would_relabel(memory, point, label: str) -> bool:  # type: ignore[no-untyped-def]
+    def _would_relabel(memory: TopologicalMemory, point: Sequence[float] | FloatArray, label: str) -> bool:
         """Whether offering a place (a direction, a landmark, a frontier) at ``point`` would merge into a
         nearby node of another label: Eq. 6 relabels a node when the newcomer is more confident, and a
         frontier must never turn a fire-extinguisher node into "unexplored area"."""
@@ -309,8 +314,8 @@ class UpdateMemory(SemExpBehaviour):
         node_id, distance = nearest
         return distance <= memory.config.delta_d and memory.node(node_id).label != label
 
-    def _map_exploration(self, memory, local_map, pose) -> list[str]:  # type: ignore[no-untyped-def]
-        """Eq. 7 with "surroundings observed" measured on the occupancy map, plus map frontiers as nodes.
+    def _map_exploration(self, memory: TopologicalMemory, local_map: Costmap, pose: Pose2D) -> list[str]:
+        """Eq. 7 with "surroundings observed" measured on the costmap, plus its frontiers as nodes.
 
         A place node (not an instructed object) whose 1 m neighbourhood the map has now mostly seen decays
         by (1 - xi): nothing is left to discover there. And the seen/unseen boundary of the map (the

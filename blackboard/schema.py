@@ -33,7 +33,8 @@ import py_trees
 
 from semexp_bt.core.memory import TopologicalMemory
 from semexp_bt.core.types import Detection, Observation, Pose2D, SafetyState, SceneEvidence, Subgoal, Twist
-from semexp_bt.nav.local_map import OccupancyMap
+from semexp_bt.nav.costmap import Costmap
+from semexp_bt.nav.global_planner import GlobalPlan
 
 #: How a behaviour may use a key: ``read``, ``write``, or both.
 KeyAccess = Literal["read", "write", "read_write"]
@@ -77,8 +78,19 @@ SCHEMA: dict[str, KeySpec] = {
         KeySpec("target", (object,), "the last arbitrated Target or None"),
         KeySpec(
             "local_map",
-            (OccupancyMap, _NONE),
-            "the occupancy map built from depth (odometry frame) that paths are planned on",
+            (Costmap, _NONE),
+            "the costmap built from depth and odometry (semexp_bt.nav.costmap.Costmap, odometry frame): "
+            "paths are planned on it, frontiers come from it",
+        ),
+        KeySpec(
+            "global_plan",
+            (GlobalPlan, _NONE),
+            "the last global plan to the subgoal (semexp_bt.nav.global_planner.GlobalPlan) or None",
+        ),
+        KeySpec(
+            "nav_failure",
+            (str, _NONE),
+            "why navigation to the subgoal last failed (no_path, start_blocked, blocked, stuck) or None",
         ),
         KeySpec("subgoal", (Subgoal, _NONE), "the subgoal being executed"),
         KeySpec("decision", (object,), "the last DecisionResult or None"),
@@ -88,7 +100,7 @@ SCHEMA: dict[str, KeySpec] = {
             (float,),
             "backend time of the last cmd_twist write; the gait's watchdog stops a stale command",
         ),
-        KeySpec("plan", (object,), "the last PlanResult or None"),
+        KeySpec("plan", (object,), "the controller's last ControlResult or None"),
         KeySpec("found_objects", (list,), "confirmed targets: label, position, stamp"),
         KeySpec("mission_outcome", (str,), "running | success | budget_exceeded | fallen | stuck | failed"),
         KeySpec("safety", (SafetyState, _NONE), "the backend's last safety state"),

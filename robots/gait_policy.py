@@ -27,6 +27,8 @@ import numpy as np
 import numpy.typing as npt
 
 from robots.go1 import LEG_NAMES, NUM_JOINTS, load_go1_spec
+from semexp_bt.core.clock import CLOCK_TOLERANCE_S
+from semexp_bt.core.geometry import wrap_angle
 from semexp_bt.core.types import FloatArray, InvalidInputError, Twist, require_finite
 
 if TYPE_CHECKING:
@@ -174,7 +176,7 @@ class TrotPrior:
         cos_knee = np.clip((reach_sq - 2.0 * link**2) / (2.0 * link**2), -1.0, 1.0)
         knee = -np.arccos(cos_knee)
         thigh = np.arctan2(-x, plane) - 0.5 * knee
-        hip = (hip + np.pi) % (2.0 * np.pi) - np.pi
+        hip = wrap_angle(hip)
         return np.stack([hip, thigh, knee], axis=-1).reshape(feet.shape[0], NUM_JOINTS)
 
 
@@ -432,7 +434,9 @@ class NearFallRecovery:
         self.near_falls += int(np.sum(tipping & ~self.recovering))
         level = tilt < RECOVERED_TILT_RAD
         self._calm_s = np.where(self.recovering & level, self._calm_s + self.control_dt_s, 0.0)
-        self.recovering = tipping | (self.recovering & (self._calm_s < RECOVERY_HOLD_S))
+        # The one clock rule (semexp_bt/core/clock.py): a hold reached within the tolerance counts as done.
+        held = self._calm_s >= RECOVERY_HOLD_S - CLOCK_TOLERANCE_S
+        self.recovering = tipping | (self.recovering & ~held)
         self._calm_s[tipping] = 0.0
         return self.recovering.copy()
 

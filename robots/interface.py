@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import abc
 from collections.abc import Sequence
-from typing import Literal
+from typing import Literal, get_args
 
 import numpy as np
 import numpy.typing as npt
@@ -22,6 +22,9 @@ import numpy.typing as npt
 from semexp_bt.core.types import ImuReading, JointState, Observation, PixelGrid, Pose2D, SafetyState, Twist
 
 Fidelity = Literal["kinematic", "dynamic"]
+"""How a backend moves the robot: ``kinematic`` integrates the commanded twist on a planar base,
+``dynamic`` steps the full legged body under a gait."""
+FIDELITIES: tuple[Fidelity, ...] = get_args(Fidelity)
 
 
 class Robot(abc.ABC):

@@ -20,19 +20,24 @@ from __future__ import annotations
 import math
 import re
 import xml.etree.ElementTree as ET
-from typing import Literal
 
 import mujoco
 import numpy as np
 import numpy.typing as npt
 
 from robots.camera import CameraConfig
-from robots.go1 import CAMERA_NAME, GO1_XML_PATH, IMU_SITE_NAME, TRUNK_BODY_NAME, Go1Spec, load_go1_spec
+from robots.go1 import (
+    CAMERA_NAME,
+    GO1_XML_PATH,
+    IMU_SITE_NAME,
+    TRUNK_BODY_NAME,
+    Go1Spec,
+    leg_envelope,
+    load_go1_spec,
+)
+from robots.interface import FIDELITIES, Fidelity
 from semexp_bt.core.scene import SceneObject, SceneSpec
 from semexp_bt.core.types import BACKGROUND_OBJECT_ID
-
-Fidelity = Literal["kinematic", "dynamic"]
-FIDELITIES: tuple[str, ...] = ("kinematic", "dynamic")
 
 FLOOR_GEOM_NAME = "floor"
 KINEMATIC_JOINT_NAMES: tuple[str, str, str] = ("base_x", "base_y", "base_yaw")
@@ -43,10 +48,6 @@ ROBOT_COLLISION_BIT = 4
 
 #: How far the floor extends beyond the scene bounds (m): beyond the camera's 10 m range.
 FLOOR_MARGIN_M = 15.0
-
-#: Gap (m) between the floor and the bottom of the kinematic leg envelope: low enough that a kerb or a
-#: cable counts, high enough that the floor itself never does.
-LEG_ENVELOPE_GROUND_GAP_M = 0.02
 
 _OBJECT_GEOM_NAME = re.compile(r"^obj(\d+)_(\d+)$")
 _SHAPES = ("box", "cylinder")
@@ -159,28 +160,6 @@ def _object_geoms(obj: SceneObject) -> list[ET.Element]:
     return geoms
 
 
-def _leg_envelope(spec: Go1Spec, trunk_height_m: float) -> tuple[tuple[float, ...], tuple[float, ...]]:
-    """Centre and half extents (trunk frame) of a box bounding the legs in the standing pose.
-
-    With the standing targets the knees stick out behind each hip (thigh pitched back), the feet sit
-    under the hips; the box spans hip, knee and foot of every leg, padded by the foot radius, from
-    :data:`LEG_ENVELOPE_GROUND_GAP_M` above the floor to the trunk's underside.
-    """
-    thigh_angle, calf_angle = spec.standing_pose_rad[1], spec.standing_pose_rad[2]
-    knee_dx = -spec.thigh_length_m * math.sin(thigh_angle)
-    foot_dx = knee_dx - spec.calf_length_m * math.sin(thigh_angle + calf_angle)
-    hip_x, hip_y, _ = spec.hip_offset_m
-    xs = [sign * hip_x + dx for sign in (1.0, -1.0) for dx in (0.0, knee_dx, foot_dx)]
-    pad = spec.foot_radius_m
-    x_min, x_max = min(xs) - pad, max(xs) + pad
-    half_y = hip_y + spec.thigh_offset_y_m + pad
-    z_min = LEG_ENVELOPE_GROUND_GAP_M - trunk_height_m
-    z_max = -0.05
-    centre = ((x_min + x_max) / 2.0, 0.0, (z_min + z_max) / 2.0)
-    half = ((x_max - x_min) / 2.0, half_y, (z_max - z_min) / 2.0)
-    return centre, half
-
-
 def _configure_camera(body: ET.Element, camera: CameraConfig) -> None:
     element = body.find(f"camera[@name='{CAMERA_NAME}']")
     if element is None:
@@ -218,7 +197,7 @@ def _kinematic_trunk(trunk: ET.Element, spec: Go1Spec) -> ET.Element:
             body.append(child)
         elif child.tag in ("site", "camera"):
             body.append(child)
-    centre, half = _leg_envelope(spec, height)
+    centre, half = leg_envelope(spec, height)
     ET.SubElement(
         body,
         "geom",

@@ -46,8 +46,9 @@ from robots.go1 import (
     TRUNK_BODY_NAME,
     load_go1_spec,
 )
-from robots.interface import Fidelity, Robot
-from robots.mjcf_scene import FIDELITIES, build_mjcf, geom_object_ids, robot_geom_ids
+from robots.interface import FIDELITIES, Fidelity, Robot
+from robots.mjcf_scene import build_mjcf, geom_object_ids, robot_geom_ids
+from semexp_bt.core.geometry import wrap_angle
 from semexp_bt.core.scene import SceneSpec
 from semexp_bt.core.types import (
     ContactEvent,
@@ -156,10 +157,6 @@ def _roll_pitch_from_quat(quat_wxyz: FloatArray) -> tuple[float, float]:
 
 def _yaw_quat(yaw_rad: float) -> FloatArray:
     return np.array([math.cos(yaw_rad / 2.0), 0.0, 0.0, math.sin(yaw_rad / 2.0)])
-
-
-def _wrap_angle(angle_rad: float) -> float:
-    return (angle_rad + math.pi) % (2.0 * math.pi) - math.pi
 
 
 #: Penetration depth the kinematic base treats as touching (distance-solver round-off at contact).
@@ -379,7 +376,7 @@ class MujocoRobot(Robot):
             [
                 x + (cos_yaw * velocity[0] - sin_yaw * velocity[1]) * dt_s,
                 y + (sin_yaw * velocity[0] + cos_yaw * velocity[1]) * dt_s,
-                _wrap_angle(yaw + velocity[2] * dt_s),
+                wrap_angle(yaw + velocity[2] * dt_s),
             ]
         )
         before = self._min_clearance_m

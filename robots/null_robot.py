@@ -20,6 +20,7 @@ import numpy as np
 import numpy.typing as npt
 
 from robots.interface import Fidelity, Robot
+from semexp_bt.core.geometry import wrap_angle
 from semexp_bt.core.types import (
     CameraIntrinsics,
     ImuReading,
@@ -116,7 +117,7 @@ class NullRobot(Robot):
         vx, vy = self._twist.linear_x_mps, self._twist.linear_y_mps
         x += (math.cos(mid) * vx - math.sin(mid) * vy) * duration_s
         y += (math.sin(mid) * vx + math.cos(mid) * vy) * duration_s
-        yaw = math.remainder(yaw + self._twist.angular_z_radps * duration_s, math.tau)
+        yaw = wrap_angle(yaw + self._twist.angular_z_radps * duration_s)
         self._pose = Pose2D(x, y, yaw)
         self._time_s += duration_s
 

@@ -20,15 +20,13 @@ from pathlib import Path
 os.environ.setdefault("MUJOCO_GL", "egl")
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-import numpy as np  # noqa: E402
+import numpy as np
 
-from behaviours.local_plan import depth_pixel_grids  # noqa: E402
-from robots.mujoco_backend import MujocoRobot  # noqa: E402
-from semexp_bt.core.types import Pose2D  # noqa: E402
-from semexp_bt.nav.local_map import OccupancyMap  # noqa: E402
-from semexp_bt.nav.planner import DepthArcPlanner  # noqa: E402
-from sims.catalogue import build_scene, list_scenes  # noqa: E402
-from sims.episodes import sample_episode  # noqa: E402
+from robots.mujoco_backend import MujocoRobot
+from semexp_bt.core.types import PixelGrid, Pose2D
+from semexp_bt.nav.costmap import CostmapConfig
+from sims.catalogue import build_scene, list_scenes
+from sims.episodes import sample_episode
 
 #: Headings (rad, added to the start's) per fidelity.
 HEADINGS_RAD = {"kinematic": (0.0, 1.5, 3.0, 4.5), "dynamic": (0.0,)}
@@ -38,7 +36,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--tolerance-m", type=float, default=0.01)
     args = parser.parse_args()
-    grids = depth_pixel_grids(DepthArcPlanner(), OccupancyMap(origin_xy=(0.0, 0.0)))
+    grids = [PixelGrid.centred(CostmapConfig().pixel_stride)]  # the costmap's pixels (UpdateCostmap's)
     sampled_total = validity_total = far_total = 0
     for fidelity, headings in HEADINGS_RAD.items():
         for name in list_scenes():

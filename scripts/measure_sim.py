@@ -26,13 +26,11 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from behaviours.local_plan import depth_pixel_grids  # noqa: E402
-from robots.camera import CameraConfig  # noqa: E402
-from robots.mujoco_backend import MujocoRobot  # noqa: E402
-from semexp_bt.core.scene import SceneObject, SceneSpec, Shape  # noqa: E402
-from semexp_bt.core.types import Pose2D, Twist  # noqa: E402
-from semexp_bt.nav.local_map import OccupancyMap  # noqa: E402
-from semexp_bt.nav.planner import DepthArcPlanner  # noqa: E402
+from robots.camera import CameraConfig
+from robots.mujoco_backend import MujocoRobot
+from semexp_bt.core.scene import SceneObject, SceneSpec, Shape
+from semexp_bt.core.types import PixelGrid, Pose2D, Twist
+from semexp_bt.nav.costmap import CostmapConfig
 
 ROOM_HALF_X_M = 4.0
 ROOM_HALF_Y_M = 3.0
@@ -95,7 +93,6 @@ def benchmark_scene(seed: int) -> SceneSpec:
         objects=tuple(objects),
         goal_object_id=len(walls),
         instruction="find the thing",
-        goal_category="thing",
     )
 
 
@@ -152,7 +149,7 @@ def catalogue_figures(seconds: float, frames: int) -> dict[str, dict[str, float]
         start = sample_episode(scene, seed=0).start
         row: dict[str, float] = {"objects": float(len(scene.objects))}
         for fidelity in ("kinematic", "dynamic"):
-            robot = MujocoRobot(scene=scene, fidelity=fidelity, start_pose=start, seed=0)  # type: ignore[arg-type]
+            robot = MujocoRobot(scene=scene, fidelity=fidelity, start_pose=start, seed=0)
             t0 = time.perf_counter()
             robot.advance(seconds)
             row[f"{fidelity}_idle_rtf"] = seconds / (time.perf_counter() - t0)
@@ -181,7 +178,7 @@ def render_figures(
         from OpenGL import GL
 
         figures["gl_renderer"] = GL.glGetString(GL.GL_RENDERER).decode()
-    except Exception as err:  # noqa: BLE001 - informational only
+    except Exception as err:
         figures["gl_renderer"] = f"unknown ({type(err).__name__})"
     tasks: dict[str, Callable[[], object]] = {
         "rgb_ms": lambda: rgbd.render_rgb(robot.data),
@@ -190,8 +187,7 @@ def render_figures(
         "observe_ms": robot.observe,
         "observe_depth_ms": robot.observe_depth,
     }
-    pose = robot.base_pose()
-    grids = depth_pixel_grids(DepthArcPlanner(), OccupancyMap(origin_xy=(pose.x_m, pose.y_m)))
+    grids = [PixelGrid.centred(CostmapConfig().pixel_stride)]  # the costmap's pixels (UpdateCostmap's)
     tasks["observe_depth_rays_ms"] = lambda: robot.observe_depth(pixel_grids=grids)
     figures["ray_count"] = int(np.isfinite(robot.observe_depth(pixel_grids=grids).depth_m).sum())
     for name, task in tasks.items():
@@ -301,7 +297,7 @@ def main(argv: list[str] | None = None) -> int:
     }
     if args.catalogue:
         result["catalogue"] = catalogue_figures(args.seconds, args.frames)
-    result["machine"]["load_average_1m_at_end"] = os.getloadavg()[0]  # type: ignore[index]
+    result["machine"]["load_average_1m_at_end"] = os.getloadavg()[0]
     text = json.dumps(result, indent=2)
     print(text)
     if args.json:

@@ -7,4 +7,5 @@ PY=${PY:-python3}
 [ -x .venv/bin/python ] || "$PY" -m venv .venv
 .venv/bin/python -m pip install -q --upgrade pip >/dev/null
 .venv/bin/python -m pip install -q "torch==2.13.0"
-.venv/bin/python -m pip install -q -e ".[dev]"
+# The models extra too: the model adapters' tests run openai, jsonschema and transformers for real.
+.venv/bin/python -m pip install -q -e ".[dev,models]"

@@ -31,6 +31,7 @@ import numpy.typing as npt
 from scipy import sparse
 from scipy.sparse import csgraph
 
+from semexp_bt.core.geometry import lattice_steps
 from semexp_bt.core.scene import SceneSpec
 from semexp_bt.core.types import InvalidInputError, require_finite
 from sims.occupancy import (
@@ -41,19 +42,6 @@ from sims.occupancy import (
     rasterise_object,
 )
 from sims.robot_footprint import ROBOT_RADIUS_M
-
-#: Lattice moves (d_row, d_col) with the intermediate cells a straight move crosses; the reverse moves
-#: come from the graph being undirected.
-_MOVES: tuple[tuple[int, int, tuple[tuple[int, int], ...]], ...] = (
-    (0, 1, ()),
-    (1, 0, ()),
-    (1, 1, ((0, 1), (1, 0))),
-    (1, -1, ((0, -1), (1, 0))),
-    (1, 2, ((0, 1), (1, 1))),
-    (2, 1, ((1, 0), (1, 1))),
-    (1, -2, ((0, -1), (1, -1))),
-    (2, -1, ((1, 0), (1, -1))),
-)
 
 
 class GeodesicOracle:
@@ -85,22 +73,12 @@ class GeodesicOracle:
     # ------------------------------------------------------------------ grid graph
     def _build_graph(self) -> tuple[sparse.csr_matrix, npt.NDArray[np.int64], npt.NDArray[np.int64]]:
         free = self.occupancy.free
-        rows, cols = free.shape
         node_of_cell = np.full(free.shape, -1, dtype=np.int64)
         cell_of_node = np.flatnonzero(free)
         node_of_cell.ravel()[cell_of_node] = np.arange(cell_of_node.size)
         res = self.occupancy.geometry.resolution_m
-        padded = np.pad(free, 2, constant_values=False)  # so every offset slice stays in range
-
-        def shifted(dr: int, dc: int) -> npt.NDArray[np.bool_]:
-            return padded[2 + dr : 2 + dr + rows, 2 + dc : 2 + dc + cols]
-
         sources, targets, weights = [], [], []
-        for dr, dc, crossed in _MOVES:
-            ok = free & shifted(dr, dc)
-            for cr, cc in crossed:
-                ok &= shifted(cr, cc)
-            r, c = np.nonzero(ok)
+        for dr, dc, r, c in lattice_steps(free):
             sources.append(node_of_cell[r, c])
             targets.append(node_of_cell[r + dr, c + dc])
             weights.append(np.full(r.size, res * math.hypot(dr, dc)))

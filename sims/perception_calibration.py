@@ -35,9 +35,11 @@ from typing import Any
 
 import numpy as np
 
+from semexp_bt.core.geometry import wrap_angle
+from semexp_bt.core.relevance import NAMES_OBJECT_RELEVANCE, phrase_similarity
 from semexp_bt.core.scene import SceneObject, SceneSpec
 from semexp_bt.core.types import BACKGROUND_OBJECT_ID, CameraIntrinsics, Observation, Pose2D
-from sims.label_confusions import normalise_label
+from sims.naming import named_objects
 from sims.perception_emulator import PerceptionNoiseConfig, emulate, load_noise_model
 
 #: Table I of the paper, mean over its five scenes (%).
@@ -54,7 +56,7 @@ DEFAULT_HIT_RADIUS_FRAC = 0.03
 
 def _target_label(scene: SceneSpec) -> str:
     try:
-        from semexp_bt.core.relevance import instruction_target
+        from semexp_bt.core.instruction import instruction_target
     except ImportError:  # relevance.py is written in parallel; the goal's label is the same phrase
         return scene.goal.label
     return instruction_target(scene.instruction)
@@ -180,17 +182,14 @@ def score_view(
     """Emulate every source on one view and add its outcome to ``report``."""
     seg = np.asarray(observation.segmentation)
     target = _target_label(scene)
-    goal_category = normalise_label(scene.goal_category)
-
+    named = {o.object_id for o in named_objects(scene, scene.instruction)}
     walls = [o.object_id for o in scene.objects if o.role == "wall"]
 
     def is_goal_category(oid: int) -> bool:
-        return (
-            oid != BACKGROUND_OBJECT_ID and normalise_label(scene.object_by_id(oid).category) == goal_category
-        )
+        return oid in named
 
     for profile in ("detector", "detector_yolo_world"):
-        out = emulate(observation, scene, target_label=target, rng=rng, noise=noise, detector_profile=profile)  # type: ignore[arg-type]
+        out = emulate(observation, scene, target_label=target, rng=rng, noise=noise, detector_profile=profile)
         if out.detections:
             top = max(out.detections, key=lambda d: d.confidence)
             report.add(
@@ -205,7 +204,7 @@ def score_view(
             aligned = [
                 p
                 for p in out.scene_evidence.proposals
-                if p.kind == "object" and normalise_label(p.label) == normalise_label(target)
+                if p.kind == "object" and phrase_similarity(p.label, target) >= NAMES_OBJECT_RELEVANCE
             ]
             if aligned:
                 radius_px = max(1, round(hit_radius_frac * seg.shape[1]))
@@ -274,7 +273,6 @@ def synthetic_scene() -> SceneSpec:
         ),
         goal_object_id=0,
         instruction="find the fire extinguisher",
-        goal_category="extinguisher",
     )
 
 
@@ -402,8 +400,8 @@ def rendered_views(
     scene bounds, facing it with up to 25 degrees of yaw error; the frame is kept once the subject
     shows at least ``min_pixels`` pixels (up to ``max_tries`` poses per view, else the view is skipped).
     """
-    from robots.mujoco_backend import MujocoRobot  # noqa: PLC0415 - heavy, optional
-    from sims.catalogue import build_scene  # noqa: PLC0415
+    from robots.mujoco_backend import MujocoRobot
+    from sims.catalogue import build_scene
 
     rng = np.random.default_rng(seed)
     for s_index, name in enumerate(scene_names):
@@ -429,7 +427,7 @@ def rendered_views(
                 if any(_footprint_distance_m(o, x, y) < ROBOT_CLEARANCE_M for o in obstacles):
                     continue
                 yaw = bearing + math.pi + float(rng.uniform(-1.0, 1.0)) * math.radians(25.0)
-                pose = Pose2D(x, y, math.atan2(math.sin(yaw), math.cos(yaw)))
+                pose = Pose2D(x, y, wrap_angle(yaw))
                 robot = _place_robot(MujocoRobot, robot, scene, pose, seed + view_index * max_tries + attempt)
                 obs = robot.observe()
                 if shows(obs, subject.object_id, min_pixels=min_pixels):
@@ -504,7 +502,7 @@ def run(args: argparse.Namespace) -> int:
         views = random_synthetic_views(np.random.default_rng(args.seed), args.views)
         kind = "synthetic"
     else:
-        from sims import catalogue  # noqa: PLC0415
+        from sims import catalogue
 
         names = catalogue.list_scenes() if args.scenes == "all" else [n for n in args.scenes.split(",") if n]
         views = rendered_views(names, views_per_scene=args.views, seed=args.seed)

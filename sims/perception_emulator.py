@@ -41,7 +41,10 @@ import numpy as np
 import numpy.typing as npt
 import yaml
 
+from semexp_bt.core.bounds import field_range
 from semexp_bt.core.config import ConfigError, config_from_dict
+from semexp_bt.core.instruction import ParsedInstruction, parse_instruction
+from semexp_bt.core.language import canonical_tokens
 from semexp_bt.core.scene import SceneObject, SceneSpec
 from semexp_bt.core.types import (
     BACKGROUND_OBJECT_ID,
@@ -54,13 +57,7 @@ from semexp_bt.core.types import (
     require_finite,
 )
 from semexp_bt.perception.interface import PerceptionResult, ReadyJob
-from sims.label_confusions import (
-    close_label_pairs,
-    close_labels_of,
-    is_confusable,
-    matches_prompt,
-    normalise_label,
-)
+from sims.naming import NounKey, PromptGrade, close_name_pairs, grade, own_names
 
 #: The default noise model shipped with the package.
 DEFAULT_NOISE_PATH = Path(__file__).with_name("perception_noise.yaml")
@@ -69,10 +66,6 @@ DetectorProfileName = Literal["detector", "detector_yolo_world"]
 
 #: Bounds that keep a Beta mean away from 0 and 1 (where the shape parameters would vanish).
 _MEAN_EPS = 1e-3
-
-
-def _range(lo: float, hi: float, *, lo_open: bool = False, hi_open: bool = False) -> dict[str, Any]:
-    return {"range": (lo, hi, lo_open, hi_open)}
 
 
 # --------------------------------------------------------------------------------------------------
@@ -85,9 +78,9 @@ def _range(lo: float, hi: float, *, lo_open: bool = False, hi_open: bool = False
 class LatencyConfig:
     """Simulated model latency on the backend clock."""
 
-    mean_s: float = field(default=1.2, metadata=_range(0.0, 600.0))
+    mean_s: float = field(default=1.2, metadata=field_range(0.0, 600.0))
     """Mean latency (s)."""
-    jitter_s: float = field(default=0.1, metadata=_range(0.0, 600.0))
+    jitter_s: float = field(default=0.1, metadata=field_range(0.0, 600.0))
     """Half-width of the uniform jitter around the mean (s); must not exceed ``mean_s``."""
 
 
@@ -95,23 +88,23 @@ class LatencyConfig:
 class VisibilityConfig:
     """How the view of one object degrades a model's chance to see it (the quality factors)."""
 
-    min_pixels: int = field(default=30, metadata=_range(1, 10_000_000))
+    min_pixels: int = field(default=30, metadata=field_range(1, 10_000_000))
     """Objects with fewer visible pixels are never reported."""
-    distance_ref_m: float = field(default=2.5, metadata=_range(0.0, 100.0))
+    distance_ref_m: float = field(default=2.5, metadata=field_range(0.0, 100.0))
     """No distance penalty up to this depth (m)."""
-    distance_scale_m: float = field(default=8.0, metadata=_range(0.0, 1000.0, lo_open=True))
+    distance_scale_m: float = field(default=8.0, metadata=field_range(0.0, 1000.0, low_open=True))
     """Beyond ``distance_ref_m`` the distance factor decays as exp(-(d - ref) / scale)."""
-    area_half_px: float = field(default=40.0, metadata=_range(0.0, 1e9))
+    area_half_px: float = field(default=40.0, metadata=field_range(0.0, 1e9))
     """Area factor n / (n + area_half_px) of n visible pixels: 0.5 at this many pixels."""
-    occlusion_exponent: float = field(default=0.7, metadata=_range(0.0, 10.0))
+    occlusion_exponent: float = field(default=0.7, metadata=field_range(0.0, 10.0))
     """Occlusion factor = visible_fraction ** occlusion_exponent."""
-    truncation_weight: float = field(default=0.5, metadata=_range(0.0, 1.0))
+    truncation_weight: float = field(default=0.5, metadata=field_range(0.0, 1.0))
     """Truncation factor = 1 - weight * truncation (truncation in [0, 1] from the mask at the border)."""
-    off_axis_weight: float = field(default=0.15, metadata=_range(0.0, 1.0))
+    off_axis_weight: float = field(default=0.15, metadata=field_range(0.0, 1.0))
     """Off-axis factor = 1 - weight * (bearing of the mask centroid / half horizontal FoV)."""
-    exposure_s: float = field(default=0.02, metadata=_range(0.0, 1.0))
+    exposure_s: float = field(default=0.02, metadata=field_range(0.0, 1.0))
     """Exposure time that turns base motion into blur (px = exposure * (fx * |omega| + fx * |v| / d))."""
-    blur_scale_px: float = field(default=10.0, metadata=_range(0.0, 1e6, lo_open=True))
+    blur_scale_px: float = field(default=10.0, metadata=field_range(0.0, 1e6, low_open=True))
     """Blur factor = exp(-blur_px / blur_scale_px)."""
 
 
@@ -121,27 +114,27 @@ class DetectorProfile:
 
     visibility: VisibilityConfig = field(default_factory=VisibilityConfig)
     latency: LatencyConfig = field(default_factory=LatencyConfig)
-    max_detection_probability: float = field(default=0.95, metadata=_range(0.0, 1.0))
+    max_detection_probability: float = field(default=0.95, metadata=field_range(0.0, 1.0))
     """Detection probability of a prompt-matching object seen at quality 1."""
-    quality_exponent: float = field(default=0.5, metadata=_range(0.0, 10.0))
+    quality_exponent: float = field(default=0.5, metadata=field_range(0.0, 10.0))
     """Report probabilities scale with q ** quality_exponent (below 1: a fair view is usually enough)."""
-    confidence_floor: float = field(default=0.25, metadata=_range(0.0, 1.0))
+    confidence_floor: float = field(default=0.25, metadata=field_range(0.0, 1.0))
     """Mean confidence of a true detection at quality 0."""
-    confidence_ceiling: float = field(default=0.75, metadata=_range(0.0, 1.0))
+    confidence_ceiling: float = field(default=0.75, metadata=field_range(0.0, 1.0))
     """Mean confidence of a true detection at quality 1."""
-    confidence_concentration: float = field(default=12.0, metadata=_range(0.0, 1e6, lo_open=True))
+    confidence_concentration: float = field(default=12.0, metadata=field_range(0.0, 1e6, low_open=True))
     """Beta concentration kappa = a + b: larger means confidences closer to their mean."""
-    confusion_rate: float = field(default=0.18, metadata=_range(0.0, 1.0))
+    confusion_rate: float = field(default=0.18, metadata=field_range(0.0, 1.0))
     """Probability (times q ** quality_exponent) that a visible object marked close to the prompt is boxed
     with the prompt's label."""
-    confusion_confidence_scale: float = field(default=0.8, metadata=_range(0.0, 1.0))
+    confusion_confidence_scale: float = field(default=0.8, metadata=field_range(0.0, 1.0))
     """A confusion's mean confidence is this fraction of a true detection's at the same quality."""
-    false_positive_rate: float = field(default=0.03, metadata=_range(0.0, 1.0))
+    false_positive_rate: float = field(default=0.03, metadata=field_range(0.0, 1.0))
     """Probability (times q ** quality_exponent) that any other visible non-wall object is boxed with the
     prompt's label."""
-    false_positive_confidence_mean: float = field(default=0.3, metadata=_range(0.0, 1.0))
+    false_positive_confidence_mean: float = field(default=0.3, metadata=field_range(0.0, 1.0))
     """Mean confidence of such a false positive."""
-    box_shrink_frac: float = field(default=0.08, metadata=_range(0.0, 0.5))
+    box_shrink_frac: float = field(default=0.08, metadata=field_range(0.0, 0.5))
     """Each box edge moves inwards by U(0, this) times the mask's bounding-box side."""
 
 
@@ -149,19 +142,19 @@ class DetectorProfile:
 class DirectionConfig:
     """Open-space 'direction' proposals of the VLM (columns where the camera sees far and clear)."""
 
-    open_depth_m: float = field(default=2.0, metadata=_range(0.0, 1000.0, lo_open=True))
+    open_depth_m: float = field(default=2.0, metadata=field_range(0.0, 1000.0, low_open=True))
     """A column is open when no obstacle pixel in the band is nearer than this (m)."""
-    band_top_frac: float = field(default=0.2, metadata=_range(0.0, 1.0))
+    band_top_frac: float = field(default=0.2, metadata=field_range(0.0, 1.0))
     """Top of the row band searched for obstacles, as a fraction of the image height."""
-    band_bottom_frac: float = field(default=0.95, metadata=_range(0.0, 1.0))
+    band_bottom_frac: float = field(default=0.95, metadata=field_range(0.0, 1.0))
     """Bottom of that band."""
-    min_width_deg: float = field(default=6.0, metadata=_range(0.0, 180.0))
+    min_width_deg: float = field(default=6.0, metadata=field_range(0.0, 180.0))
     """Open runs narrower than this horizontal angle are ignored."""
-    doorway_max_deg: float = field(default=20.0, metadata=_range(0.0, 180.0))
+    doorway_max_deg: float = field(default=20.0, metadata=field_range(0.0, 180.0))
     """An open run bounded by obstacles on both sides and narrower than this is called a doorway."""
-    report_probability: float = field(default=0.85, metadata=_range(0.0, 1.0))
+    report_probability: float = field(default=0.85, metadata=field_range(0.0, 1.0))
     """Probability that the VLM mentions each open direction it could see."""
-    max_directions: int = field(default=3, metadata=_range(0, 100))
+    max_directions: int = field(default=3, metadata=field_range(0, 100))
     """At most this many direction proposals per view (widest first)."""
 
 
@@ -169,15 +162,15 @@ class DirectionConfig:
 class SceneConfidenceConfig:
     """The VLM's scene confidence C_s ~ Beta around a mean that falls with clutter and blur."""
 
-    max_mean: float = field(default=0.8, metadata=_range(0.0, 1.0))
+    max_mean: float = field(default=0.8, metadata=field_range(0.0, 1.0))
     """Mean C_s of a clear, static view."""
-    clutter_weight: float = field(default=0.3, metadata=_range(0.0, 1.0))
+    clutter_weight: float = field(default=0.3, metadata=field_range(0.0, 1.0))
     """Mean drop at full clutter."""
-    clutter_objects_ref: int = field(default=8, metadata=_range(1, 10_000))
+    clutter_objects_ref: int = field(default=8, metadata=field_range(1, 10_000))
     """Number of visible non-wall objects that counts as full clutter."""
-    blur_weight: float = field(default=0.3, metadata=_range(0.0, 1.0))
+    blur_weight: float = field(default=0.3, metadata=field_range(0.0, 1.0))
     """Mean drop at full blur (blur factor 0)."""
-    concentration: float = field(default=20.0, metadata=_range(0.0, 1e6, lo_open=True))
+    concentration: float = field(default=20.0, metadata=field_range(0.0, 1e6, low_open=True))
     """Beta concentration of C_s."""
 
 
@@ -191,28 +184,28 @@ class VlmProfile:
         )
     )
     latency: LatencyConfig = field(default_factory=lambda: LatencyConfig(mean_s=2.5, jitter_s=0.25))
-    max_mention_probability: float = field(default=0.95, metadata=_range(0.0, 1.0))
+    max_mention_probability: float = field(default=0.95, metadata=field_range(0.0, 1.0))
     """Probability (times quality ** quality_exponent) that a visible matching or close object is proposed."""
-    quality_exponent: float = field(default=0.5, metadata=_range(0.0, 10.0))
+    quality_exponent: float = field(default=0.5, metadata=field_range(0.0, 10.0))
     """Mention probabilities scale with q ** quality_exponent."""
-    mention_other_rate: float = field(default=0.15, metadata=_range(0.0, 1.0))
+    mention_other_rate: float = field(default=0.15, metadata=field_range(0.0, 1.0))
     """Probability (times q ** quality_exponent) that another visible non-wall object is proposed under its
     own label."""
-    confusion_rate: float = field(default=0.16, metadata=_range(0.0, 1.0))
+    confusion_rate: float = field(default=0.16, metadata=field_range(0.0, 1.0))
     """Probability that a proposed object marked close to the target is labelled as the target."""
-    swap_rate: float = field(default=0.05, metadata=_range(0.0, 1.0))
+    swap_rate: float = field(default=0.05, metadata=field_range(0.0, 1.0))
     """Probability that a proposed target object is labelled with one of its close labels instead."""
-    hallucination_rate: float = field(default=0.03, metadata=_range(0.0, 1.0))
+    hallucination_rate: float = field(default=0.03, metadata=field_range(0.0, 1.0))
     """Probability per view of a target proposal on an in-view pixel that is not the target."""
-    point_jitter_frac: float = field(default=0.1, metadata=_range(0.0, 10.0))
+    point_jitter_frac: float = field(default=0.1, metadata=field_range(0.0, 10.0))
     """Std of the point jitter as a fraction of the visible mask's bounding-box width/height."""
     emit_regions: bool = True
     """Attach a coarse region (jittered mask bounding box) to object proposals."""
-    region_jitter_frac: float = field(default=0.2, metadata=_range(0.0, 10.0))
+    region_jitter_frac: float = field(default=0.2, metadata=field_range(0.0, 10.0))
     """Std of each region edge's jitter as a fraction of the box side."""
-    order_noise: float = field(default=0.25, metadata=_range(0.0, 100.0))
+    order_noise: float = field(default=0.25, metadata=field_range(0.0, 100.0))
     """Gumbel scale added to the quality when the VLM orders its object proposals."""
-    max_object_proposals: int = field(default=5, metadata=_range(0, 1000))
+    max_object_proposals: int = field(default=5, metadata=field_range(0, 1000))
     """At most this many object proposals per view."""
     directions: DirectionConfig = field(default_factory=DirectionConfig)
     scene_confidence: SceneConfidenceConfig = field(default_factory=SceneConfidenceConfig)
@@ -522,35 +515,35 @@ def _shrunk_box(
 
 def _emulate_detector(
     visible: dict[int, VisibleObject],
-    objects: dict[int, SceneObject],
+    grades: dict[int, PromptGrade],
     *,
     prompt: str,
-    pairs: frozenset[frozenset[str]],
     profile: DetectorProfile,
     motion: Twist,
     fx_px: float,
     rng: np.random.Generator,
 ) -> tuple[list[Detection], list[tuple[ReportKind, int, float]]]:
+    """Boxes for the visible objects, each drawn by its grade (a prompted detector labels every box with
+    the prompt's phrase, as GroundingDINO labels a box with the prompt tokens it grounded)."""
     found: list[tuple[Detection, ReportKind, int, float]] = []
     span = profile.confidence_ceiling - profile.confidence_floor
     for oid in sorted(visible):
-        vis, obj = visible[oid], objects[oid]
-        if vis.pixel_count < profile.visibility.min_pixels:
+        vis, graded = visible[oid], grades.get(oid)
+        if graded is None or vis.pixel_count < profile.visibility.min_pixels:
             continue
         q = quality_factors(vis, profile.visibility, motion=motion, fx_px=fx_px).quality
         seen = q**profile.quality_exponent
         true_mean = profile.confidence_floor + span * q
-        if matches_prompt(obj, prompt):
-            kind: ReportKind = "true"
+        kind: ReportKind
+        if graded.kind == "match":
+            kind = "true"
             probability, mean = profile.max_detection_probability * seen, true_mean
-        elif is_confusable(obj, prompt, pairs):
+        elif graded.kind == "related":
             kind = "confusion"
             probability, mean = profile.confusion_rate * seen, profile.confusion_confidence_scale * true_mean
-        elif obj.role != "wall":
+        else:
             kind = "false_positive"
             probability, mean = profile.false_positive_rate * seen, profile.false_positive_confidence_mean
-        else:
-            continue
         if rng.random() >= probability:
             continue
         confidence = _beta(rng, mean, profile.confidence_concentration)
@@ -660,45 +653,59 @@ def _scene_confidence(
     return _beta(rng, mean, cfg.concentration)
 
 
+def _own_name(obj: SceneObject, rng: np.random.Generator) -> str:
+    """What the VLM calls ``obj`` in its own words: its label half of the time, else one of its aliases."""
+    names = own_names(obj)
+    if len(names) == 1 or rng.random() < 0.5:
+        return names[0]
+    return names[1 + int(rng.integers(len(names) - 1))]
+
+
 def _emulate_vlm(
     observation: Observation,
     scene: SceneSpec,
     visible: dict[int, VisibleObject],
     objects: dict[int, SceneObject],
+    grades: dict[int, PromptGrade],
     *,
-    prompt: str,
-    pairs: frozenset[frozenset[str]],
     profile: VlmProfile,
     motion: Twist,
     rng: np.random.Generator,
 ) -> tuple[SceneEvidence, list[tuple[ReportKind, int | None, float]]]:
+    """Proposals for the visible objects in the VLM's own words (never the instruction's): an object the
+    prompt names under one of its names; a related one under its own, or now and then (a confusion)
+    under the name of an object of the prompted kind in the scene; others under their own names."""
     k = observation.intrinsics
     seg = np.asarray(observation.segmentation)
     height, width = seg.shape
-    target_norm = normalise_label(prompt)
-    close = close_labels_of(prompt, pairs)
-    # (salience, proposal, kind, object id, quality); salience orders the VLM's answer.
-    items: list[tuple[float, SceneProposal, ReportKind, int | None, float]] = []
+    # The names of the prompted kind in this scene, which a confused VLM gives to a look-alike.
+    prompted = [o for o in objects.values() if grades.get(o.object_id, _UNRELATED).kind == "match"]
+    prompted_names = tuple(sorted({o.label for o in prompted}))
+    related_names = tuple(sorted({objects[oid].label for oid, g in grades.items() if g.kind == "related"}))
+    # (names the prompted kind, salience, proposal, kind, object id, quality); the VLM answers with what
+    # it believes is the prompted kind first, then by salience.
+    items: list[tuple[bool, float, SceneProposal, ReportKind, int | None, float]] = []
     for oid in sorted(visible):
-        vis, obj = visible[oid], objects[oid]
-        if vis.pixel_count < profile.visibility.min_pixels or obj.role == "wall":
+        vis, graded = visible[oid], grades.get(oid)
+        if graded is None or vis.pixel_count < profile.visibility.min_pixels:
             continue
+        obj = objects[oid]
         q = quality_factors(vis, profile.visibility, motion=motion, fx_px=k.fx_px).quality
         seen = q**profile.quality_exponent
         kind: ReportKind
-        if matches_prompt(obj, prompt):
+        if graded.kind == "match":
             probability = profile.max_mention_probability * seen
-            label, kind = prompt, "true"
-            if close and rng.random() < profile.swap_rate:
-                label, kind = close[int(rng.integers(len(close)))], "confusion"
-        elif is_confusable(obj, prompt, pairs):
+            label, kind = _own_name(obj, rng), "true"
+            if related_names and rng.random() < profile.swap_rate:
+                label, kind = related_names[int(rng.integers(len(related_names)))], "confusion"
+        elif graded.kind == "related":
             probability = profile.max_mention_probability * seen
-            label, kind = obj.label, "other"
-            if rng.random() < profile.confusion_rate:
-                label, kind = prompt, "confusion"
+            label, kind = _own_name(obj, rng), "other"
+            if prompted_names and rng.random() < profile.confusion_rate:
+                label, kind = prompted_names[int(rng.integers(len(prompted_names)))], "confusion"
         else:
             probability = profile.mention_other_rate * seen
-            label, kind = obj.label, "other"
+            label, kind = _own_name(obj, rng), "other"
         if rng.random() >= probability:
             continue
         u0, v0, u1, v1 = vis.bbox_px
@@ -712,28 +719,23 @@ def _emulate_vlm(
             c, d = _clip_point(u1 + e[2], v1 + e[3], width, height)
             region = (min(a, c), min(b, d), max(a, c), max(b, d))
         salience = q + profile.order_noise * float(rng.gumbel())
-        items.append((salience, SceneProposal(point_px=point, label=label, region_px=region), kind, oid, q))
+        believed = kind == "true" or label in prompted_names
+        proposal = SceneProposal(point_px=point, label=label, region_px=region)
+        items.append((believed, salience, proposal, kind, oid, q))
 
-    if rng.random() < profile.hallucination_rate:
-        # Only pixels of things really in view that are not the target: background or other objects.
-        target_ids = [oid for oid, obj in objects.items() if matches_prompt(obj, prompt)]
+    if prompted_names and rng.random() < profile.hallucination_rate:
+        # A prompted kind the scene holds, seen where it is not: on in-view pixels of anything else.
+        target_ids = [o.object_id for o in prompted]
         candidates = np.flatnonzero(~np.isin(seg, target_ids))
         if candidates.size:
             flat = int(candidates[int(rng.integers(candidates.size))])
             v, u = divmod(flat, width)
             salience = float(rng.uniform(0.0, 1.0)) + profile.order_noise * float(rng.gumbel())
-            items.append(
-                (
-                    salience,
-                    SceneProposal(point_px=(float(u), float(v)), label=prompt),
-                    "hallucination",
-                    None,
-                    0.0,
-                )
-            )
+            label = prompted_names[int(rng.integers(len(prompted_names)))]
+            proposal = SceneProposal(point_px=(float(u), float(v)), label=label)
+            items.append((True, salience, proposal, "hallucination", None, 0.0))
 
-    # A VLM asked for the target answers with what it believes is the target first.
-    items.sort(key=lambda it: (normalise_label(it[1].label) != target_norm, -it[0]))
+    items.sort(key=lambda it: (not it[0], -it[1]))
     items = items[: profile.max_object_proposals]
 
     directions: list[SceneProposal] = []
@@ -744,13 +746,22 @@ def _emulate_vlm(
             directions.append(SceneProposal(point_px=point, label=label, kind="direction", region_px=region))
 
     scene_confidence = _scene_confidence(visible, objects, profile, motion=motion, fx_px=k.fx_px, rng=rng)
-    proposals = tuple(it[1] for it in items) + tuple(directions)
-    provenance: list[tuple[ReportKind, int | None, float]] = [(it[2], it[3], it[4]) for it in items]
+    proposals = tuple(it[2] for it in items) + tuple(directions)
+    provenance: list[tuple[ReportKind, int | None, float]] = [(it[3], it[4], it[5]) for it in items]
     provenance += [("direction", None, 0.0)] * len(directions)
     evidence = SceneEvidence(
         proposals=proposals, scene_confidence=scene_confidence, stamp_s=observation.stamp_s
     )
     return evidence, provenance
+
+
+_UNRELATED = PromptGrade("unrelated", 0.0)
+
+
+def prompt_grades(scene: SceneSpec, prompt: ParsedInstruction) -> dict[int, PromptGrade]:
+    """Every non-wall object's grade for ``prompt``."""
+    pairs: frozenset[frozenset[NounKey]] = close_name_pairs(scene)
+    return {o.object_id: grade(o, prompt, pairs) for o in scene.objects if o.role != "wall"}
 
 
 def emulate(
@@ -779,7 +790,7 @@ def emulate(
         InvalidInputError: on a missing/ill-shaped segmentation, an unknown id, an empty target label or
             a non-finite motion.
     """
-    if not normalise_label(target_label):
+    if not canonical_tokens(target_label)[0]:
         raise InvalidInputError(f"target_label must name something, got {target_label!r}")
     motion = Twist.zero() if motion is None else motion
     require_finite("motion", [motion.linear_x_mps, motion.linear_y_mps, motion.angular_z_radps])
@@ -792,29 +803,14 @@ def emulate(
     objects = {obj.object_id: obj for obj in scene.objects}
     min_pixels = min(det_profile.visibility.min_pixels, noise.vlm.visibility.min_pixels)
     visible = analyse_view(observation, scene, min_pixels=min_pixels)
-    pairs = close_label_pairs(scene)
+    grades = prompt_grades(scene, parse_instruction(target_label))
     fx = observation.intrinsics.fx_px
 
     detections, det_prov = _emulate_detector(
-        visible,
-        objects,
-        prompt=target_label,
-        pairs=pairs,
-        profile=det_profile,
-        motion=motion,
-        fx_px=fx,
-        rng=rng,
+        visible, grades, prompt=target_label, profile=det_profile, motion=motion, fx_px=fx, rng=rng
     )
     evidence, vlm_prov = _emulate_vlm(
-        observation,
-        scene,
-        visible,
-        objects,
-        prompt=target_label,
-        pairs=pairs,
-        profile=noise.vlm,
-        motion=motion,
-        rng=rng,
+        observation, scene, visible, objects, grades, profile=noise.vlm, motion=motion, rng=rng
     )
     vlm_latency = _draw_latency(rng, noise.vlm.latency)
     det_latency = _draw_latency(rng, det_profile.latency)

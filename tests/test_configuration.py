@@ -17,10 +17,11 @@ import yaml
 from robots.null_robot import NullRobot
 from semexp_bt.app.configuration import read_config_file, resolve_config
 from semexp_bt.app.runner import MissionComponents, run_mission
+from semexp_bt.core.bounds import Interval, field_interval
 from semexp_bt.core.config import ConfigError, SemExpConfig
 from semexp_bt.core.relevance import CachedRelevance, LexicalRelevance
 from semexp_bt.core.types import Pose2D, SceneEvidence
-from semexp_bt.nav.planner import DepthArcPlanner
+from semexp_bt.nav.pure_pursuit import RegulatedPurePursuit
 from semexp_bt.perception.interface import PerceptionResult
 from sims.scripted_perception import ScriptedPerception
 from trees.loader import parse_mission
@@ -36,10 +37,10 @@ def _changed_value(value: Any, field: dataclasses.Field[Any]) -> Any:
     if isinstance(value, int):
         return value + 1
     if isinstance(value, float):
-        lo, hi, lo_open, hi_open = field.metadata.get("range", (-math.inf, math.inf, False, False))
+        interval = field_interval(field) or Interval()
         candidate = value * 0.9 if value > 0 else value + 1e-3
-        if candidate <= lo if lo_open else candidate < lo:
-            candidate = (value + hi) / 2
+        if not interval.contains(candidate):
+            candidate = (value + (math.inf if interval.high is None else interval.high)) / 2
         return candidate
     if isinstance(value, str):  # a Literal: the other allowed value
         return {"graph": "euclidean", "euclidean": "graph"}[value]
@@ -108,7 +109,7 @@ def test_every_mission_override_reaches_the_objects_that_use_it(
             robot=robot,
             perception=ScriptedPerception([NOTHING_SEEN]),
             relevance=CachedRelevance(LexicalRelevance()),
-            planner=DepthArcPlanner(),
+            planner=RegulatedPurePursuit(),
         ),
         config=config,
         instructions=["find the fire extinguisher"],

@@ -30,7 +30,7 @@ from semexp_bt.core.config import SemExpConfig
 from semexp_bt.core.memory import TopologicalMemory
 from semexp_bt.core.relevance import CachedRelevance, LexicalRelevance
 from semexp_bt.core.types import Detection, Observation, Pose2D, SceneEvidence, SceneProposal, Subgoal
-from semexp_bt.nav.planner import DepthArcPlanner
+from semexp_bt.nav.pure_pursuit import RegulatedPurePursuit
 from semexp_bt.perception.interface import PerceptionResult
 from sims.scripted_perception import ScriptedPerception
 
@@ -97,7 +97,7 @@ def make_services(
         perception=ScriptedPerception([answer], latency_s=2.5),
         relevance=CachedRelevance(LexicalRelevance()),
         config=config or SemExpConfig(),
-        planner=DepthArcPlanner(),
+        planner=RegulatedPurePursuit(),
         rng=np.random.default_rng(0),
         budget_s=budget_s,
     )
@@ -261,9 +261,8 @@ def test_two_missions_in_one_process_share_no_state() -> None:
     assert not any(n.label == "fire extinguisher" for n in board_two.memory.nodes())
     map_two = board_two.local_map
     assert map_two is not map_one and map_two.origin_xy == (10.0, 10.0)
-    post_cell = tuple(map_two.cell_of(np.array([3.0, 0.0])))
-    assert map_one.hits[tuple(map_one.cell_of(np.array([2.85, 0.0])))] > 0  # the first map saw the post ...
-    assert map_two.hits[post_cell] == 0  # ... the second map has never seen it
+    assert map_one.state_at((2.82, 0.0)) == "lethal"  # the first map saw the post ...
+    assert map_two.state_at((2.82, 0.0)) == "unknown"  # ... the second map has never seen it
     assert board_two.found_objects == [] and board_two.mission_outcome == "budget_exceeded"
 
 
@@ -581,16 +580,21 @@ def test_confirmation_declares_only_when_the_mean_vote_lies_within_the_success_r
     assert len(services.perception.requests) == 4  # the first view and three voting further views
 
 
-@pytest.mark.parametrize(("map_period_s", "expected_frames"), [(0.0, 24), (0.25, 8), (1.0, 2)])
-def test_local_plan_adds_depth_to_the_map_at_its_own_period(
-    tmp_path: Path, map_period_s: float, expected_frames: int
+@pytest.mark.parametrize(("rate_hz", "expected_frames"), [(12.0, 24), (6.0, 12), (1.0, 2)])
+def test_the_costmap_takes_depth_at_its_own_rate(
+    tmp_path: Path, rate_hz: float, expected_frames: int
 ) -> None:
-    """LocalPlan plans at 12 Hz but adds a depth frame to the occupancy map only every ``map_period_s``
-    (the first cycle always does). In 2 simulated seconds: 24 planning cycles, and 24, 8 or 2 map frames."""
+    """The controller runs at 12 Hz, the costmap takes a depth frame at its RateLimiter's rate (the first
+    tick always does). In 2 simulated seconds: 24 control cycles, and 24, 12 or 2 costmap frames."""
     tree_file = tmp_path / "plan.yaml"
     tree_file.write_text(
-        "tree:\n  type: RateLimiter\n  name: Plan12Hz\n  params: {rate_hz: 12.0}\n  children:\n"
-        f"    - type: LocalPlan\n      name: LocalPlan\n      params: {{map_period_s: {map_period_s}}}\n"
+        "tree:\n  type: Parallel\n  name: Nav\n  params: {policy: SuccessOnAll}\n  children:\n"
+        f"    - type: RateLimiter\n      name: Map\n      params: {{rate_hz: {rate_hz}}}\n      children:\n"
+        "        - type: UpdateCostmap\n          name: UpdateCostmap\n"
+        "    - type: RateLimiter\n      name: Plan12Hz\n      params: {rate_hz: 12.0}\n      children:\n"
+        "        - type: ComputePathToSubgoal\n          name: ComputePath\n"
+        "    - type: RateLimiter\n      name: Follow12Hz\n      params: {rate_hz: 12.0}\n      children:\n"
+        "        - type: FollowPath\n          name: FollowPath\n"
     )
     robot = NullRobot(start_pose=Pose2D(0.0, 0.0, 0.0))
     services = make_services(robot, seeing([]))

@@ -1,4 +1,4 @@
-"""Geometric frontiers from depth (semexp_bt.nav.frontier) and the planner's standoff arrival."""
+"""Geometric frontiers from depth (semexp_bt.nav.frontier)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,6 @@ import pytest
 
 from semexp_bt.core.types import CameraIntrinsics, InvalidInputError
 from semexp_bt.nav.frontier import depth_frontiers, horizon_row
-from semexp_bt.nav.planner import DepthArcPlanner
 
 K = CameraIntrinsics.from_fov(width_px=320, height_px=240, vertical_fov_deg=42.5)
 CAMERA_HEIGHT_M = 0.3
@@ -78,33 +77,3 @@ def test_bad_depth_shape_names_the_field() -> None:
             depth_m=np.ones((10, 10)), intrinsics=K, camera_to_world=level_camera_to_world(),
             open_range_m=1.5, min_width_deg=8.0,
         )  # fmt: skip
-
-
-def wall_depth(distance_m: float) -> np.ndarray:
-    """A flat wall across the whole view ``distance_m`` ahead of a level camera."""
-    return np.full((K.height_px, K.width_px), distance_m)
-
-
-def camera_to_base() -> np.ndarray:
-    return level_camera_to_world()  # the base frame sits on the floor under the camera
-
-
-def test_goal_on_a_wall_is_reached_at_the_safe_standoff() -> None:
-    # The robot stands 0.5 m from a wall; the goal is on the wall's surface, 0.5 m ahead. The disc
-    # (0.30 m + thinning) plus the 0.10 m margin cannot get closer: that is the standoff arrival.
-    planner = DepthArcPlanner()
-    result = planner.plan(
-        depth_m=wall_depth(0.5), intrinsics=K, camera_to_base=camera_to_base(), goal_base_xy=(0.55, 0.0),
-        stamp_s=0.0,
-    )  # fmt: skip
-    assert result.status == "arrived"
-
-
-def test_goal_on_a_far_wall_is_not_an_arrival() -> None:
-    # The same goal-on-a-surface 0.95 m ahead with 0.5 m of free floor before it: not there yet.
-    planner = DepthArcPlanner()
-    result = planner.plan(
-        depth_m=wall_depth(0.95), intrinsics=K, camera_to_base=camera_to_base(), goal_base_xy=(1.0, 0.0),
-        stamp_s=0.0,
-    )  # fmt: skip
-    assert result.status != "arrived"

@@ -217,7 +217,7 @@ def test_env_steps_and_detects_falls() -> None:
 
 def _flat_robot() -> MujocoRobot:
     scene = SceneSpec(name="flat", title="Flat", seed=0, bounds_m=(-5.0, -5.0, 5.0, 5.0), objects=(),
-                      goal_object_id=0, instruction="", goal_category="")  # fmt: skip
+                      goal_object_id=0, instruction="")  # fmt: skip
     return MujocoRobot(scene=scene, fidelity="dynamic", start_pose=Pose2D(0.0, 0.0, 0.0), seed=0)
 
 

@@ -9,6 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from semexp_bt.core.geometry import wrap_angle
 from semexp_bt.core.scene import SceneObject, SceneSpec
 from semexp_bt.core.types import InvalidInputError
 from sims.catalogue import build_scene
@@ -63,7 +64,7 @@ def around_wall_end(a: tuple[float, float], b: tuple[float, float], inflation_m:
         d = math.dist(p, corner)
         bearing = math.atan2(p[1] - corner[1], p[0] - corner[0])
         tangent = bearing - math.acos(inflation_m / d) if clockwise else bearing + math.acos(inflation_m / d)
-        arc = abs(((math.pi / 2 - tangent + math.pi) % (2 * math.pi)) - math.pi)
+        arc = abs(wrap_angle(math.pi / 2 - tangent))
         return math.sqrt(d * d - inflation_m**2) + inflation_m * arc
 
     left, right = (5.0 - WALL_HALF_T, WALL_TOP_Y), (5.0 + WALL_HALF_T, WALL_TOP_Y)

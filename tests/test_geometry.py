@@ -352,6 +352,25 @@ def test_wrap_angle_property(angle: float) -> None:
     assert turns == pytest.approx(round(turns), abs=1e-9)
 
 
+@given(st.lists(st.floats(-1e4, 1e4), min_size=1, max_size=20))
+def test_wrap_angle_of_an_array_is_bit_identical_to_the_scalar_wrap(angles: list[float]) -> None:
+    # The planner wraps arrays and the robot backends scalars; one formula must give both the same bits.
+    wrapped = wrap_angle(np.array(angles))
+    assert wrapped.tolist() == [wrap_angle(a) for a in angles]
+
+
+def test_wrap_angle_keeps_the_interval_half_open_where_the_modulo_rounds_to_two_pi() -> None:
+    just_below_minus_pi = math.nextafter(-math.pi, -math.inf)
+    assert (just_below_minus_pi + math.pi) % (2.0 * math.pi) == 2.0 * math.pi  # the rounding case
+    assert wrap_angle(just_below_minus_pi) == -math.pi
+    assert wrap_angle(np.array([just_below_minus_pi, math.pi])).tolist() == [-math.pi, -math.pi]
+
+
+def test_wrap_angle_rejects_a_non_finite_entry_of_an_array() -> None:
+    with pytest.raises(InvalidInputError, match="angle_rad"):
+        wrap_angle(np.array([0.0, math.inf]))
+
+
 def test_world_to_base_hand_worked() -> None:
     facing_plus_y = Pose2D(x_m=1.0, y_m=1.0, yaw_rad=math.pi / 2)
     assert world_to_base((1.0, 3.0), facing_plus_y) == pytest.approx((2.0, 0.0))  # 2 m ahead

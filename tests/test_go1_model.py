@@ -22,7 +22,6 @@ EMPTY_SCENE = SceneSpec(
     objects=(),
     goal_object_id=0,
     instruction="",
-    goal_category="",
 )
 
 

@@ -1,10 +1,7 @@
 """Simulated missions are tests: the paper's mission on the MuJoCo backend, kinematic fidelity.
 
-- Episodes the mission solves with the committed code are regression tests: the mission declares
-  success next to the goal object (within r_s of its footprint) and what it reached is of the instructed
-  category. They are the paper protocol's own episodes (``semexp-bt bench paper``, Table III, strategy
-  ``ours``, embedding relevance, docs/results.md): in each of the ten scenes, the solved seed with the
-  least simulated time among the seeds that had run when the list was taken.
+- Seed 0 of each scene (a list fixed before outcomes, ``slow`` marker): the mission declares success next
+  to the goal object (within r_s of its footprint) and what it reached is of the instructed category.
 - With the goal hidden (sunk under the floor, so no camera can see it), the robot explores among the
   distractors and never declares success: calibrated arbitration, the 3-of-4 confirmation vote and the
   label majority at the spot do not accept a red trash can for an extinguisher, a grey chair for a black
@@ -28,22 +25,15 @@ from semexp_bt.app.episode import EpisodeOptions, run_episode
 
 MISSION = Path(__file__).resolve().parents[1] / "trees" / "object_search.yaml"
 
-#: One solved seed per scene: of the 200 Table III episodes (strategy ``ours``) in ``runs/paper_s8``, the
-#: solved one with the least simulated time whose confirmed target lies at the goal object (its reached
-#: category is the goal's, so SA counts it). The list follows the protocol run of the committed code: the
-#: session-8 map period changed episodes, and office seed 0, the session-7 pick, now runs out its budget.
-SOLVED_EPISODES: list[tuple[str, int]] = [
-    ("garden_sim", 17),
-    ("sidewalk", 16),
-    ("road", 15),
-    ("warehouse_a", 18),
-    ("warehouse_b", 11),
-    ("office", 11),
-    ("showroom", 9),
-    ("laboratory", 12),
-    ("living_room", 0),
-    ("garden_real", 6),
-]
+#: Seed 0 of every scene, fixed before any outcome of the navigation stack of issue #17 was seen (the list
+#: before it was each scene's solved protocol episode, chosen from outcomes). How many of them the
+#: committed code solves is stated in docs/planner.md; the test is behind the ``slow`` marker so that the
+#: default suite does not depend on a benchmark figure (``pytest -m slow tests/test_missions.py``).
+MISSION_EPISODES: list[tuple[str, int]] = [
+    (scene, 0)
+    for scene in ("garden_sim", "sidewalk", "road", "warehouse_a", "warehouse_b", "office", "showroom",
+                  "laboratory", "living_room", "garden_real")
+]  # fmt: skip
 
 
 def _summary(record: dict) -> str:
@@ -55,7 +45,8 @@ def _summary(record: dict) -> str:
     )
 
 
-@pytest.mark.parametrize(("scene", "seed"), SOLVED_EPISODES)
+@pytest.mark.slow
+@pytest.mark.parametrize(("scene", "seed"), MISSION_EPISODES)
 def test_paper_mission_finds_the_goal(scene: str, seed: int) -> None:
     record = run_episode(EpisodeOptions(mission_path=MISSION, scene=scene, seed=seed, relevance="embedding"))
     print(_summary(record))

@@ -72,7 +72,6 @@ def make_scene(*, box_face_x_m: float = 3.0, wall_x_m: float | None = None) -> S
         objects=tuple(objects),
         goal_object_id=BOX_ID,
         instruction="find the cabinet",
-        goal_category="cabinet",
     )
 
 
@@ -243,7 +242,6 @@ def test_malformed_scene_object_is_reported_by_name() -> None:
         objects=(bad,),
         goal_object_id=1,
         instruction="",
-        goal_category="",
     )
     with pytest.raises(ValueError, match="blob_1"):
         build_mjcf(scene, fidelity="kinematic")
@@ -522,7 +520,7 @@ def test_flat_colour_depth_pass_reads_the_lit_pass_depth_to_the_bit(scene_name: 
         robot.close()
 
 
-#: The pixels LocalPlan asks for by default: the planner's grid and the occupancy map's.
+#: The pixels UpdateCostmap asks for (the costmap's grid), and the 6-pixel grid perception-side maps read.
 PLANNER_AND_MAP_GRIDS = (PixelGrid(stride=4, offset=2), PixelGrid(stride=6, offset=0))
 
 

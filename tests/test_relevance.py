@@ -1,4 +1,5 @@
-"""Relevance scorers: instruction parsing, lexical scorer, cache, LLM adjudicator, embedding scorer."""
+"""Relevance scorers: instruction parsing, lexical scorer, cache, embedding scorer (the LLM scorer:
+tests/test_models_relevance.py)."""
 
 from __future__ import annotations
 
@@ -9,17 +10,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from semexp_bt.core.instruction import instruction_target
+from semexp_bt.core.language import canonical_tokens, singularise
 from semexp_bt.core.relevance import (
-    COLOUR_CONFLICT_FACTOR,
+    ATTRIBUTE_CONFLICT_FACTOR,
     CachedRelevance,
     LexicalRelevance,
-    LLMRelevance,
-    RelevanceReplyError,
     RelevanceScorer,
-    canonical_tokens,
-    instruction_target,
-    parse_relevance_reply,
-    singularise,
 )
 from semexp_bt.core.types import InvalidInputError
 
@@ -91,7 +88,7 @@ def test_lexical_hand_worked_scores() -> None:
         return LEXICAL.score(instruction=instruction, label=label)
 
     # black(1) chair(2) vs grey(1) chair(2): shared chair -> (2 + 2) / (3 + 3), times the colour conflict.
-    assert s("find the black chair", "grey chair") == pytest.approx(4 / 6 * COLOUR_CONFLICT_FACTOR)
+    assert s("find the black chair", "grey chair") == pytest.approx(4 / 6 * ATTRIBUTE_CONFLICT_FACTOR)
     # black(1) chair(2) vs chair(2): (2 + 2) / (3 + 2); no conflict, the label names no colour.
     assert s("find the black chair", "chair") == pytest.approx(0.8)
     # shared modifier only: (1 + 1) / (3 + 3).
@@ -177,50 +174,6 @@ def test_cached_relevance_rejects_bad_inner_values(bad: float) -> None:
     with pytest.raises(InvalidInputError, match="label 'sofa'"):
         cached.score(instruction="find the chair", label="sofa")
     assert len(cached) == 0
-
-
-@pytest.mark.parametrize(
-    ("reply", "value"),
-    [("0.8", 0.8), ("Score: 0.35.", 0.35), ("1", 1.0), ("0", 0.0), ("75%", 0.75), (" .5\n", 0.5)],
-)
-def test_parse_relevance_reply(reply: str, value: float) -> None:
-    assert parse_relevance_reply(reply) == pytest.approx(value)
-
-
-@pytest.mark.parametrize("reply", ["", "very relevant", "1.7", "-0.2", "250%"])
-def test_parse_relevance_reply_rejects_garbage(reply: str) -> None:
-    with pytest.raises(RelevanceReplyError):
-        parse_relevance_reply(reply)
-
-
-class FakeCompleter:
-    def __init__(self, reply: str) -> None:
-        self.reply = reply
-        self.calls: list[tuple[str, float]] = []
-
-    def complete(self, *, prompt: str, temperature: float) -> str:
-        self.calls.append((prompt, temperature))
-        return self.reply
-
-
-def test_llm_relevance_uses_fixed_prompt_and_temperature_zero() -> None:
-    completer = FakeCompleter("0.9")
-    scorer = LLMRelevance(completer)
-    assert scorer.scores(
-        instruction="find the fire extinguisher", labels=["extinguisher", "sofa"]
-    ).tolist() == [
-        0.9,
-        0.9,
-    ]
-    prompt, temperature = completer.calls[0]
-    assert temperature == 0.0
-    assert '"fire extinguisher"' in prompt and '"extinguisher"' in prompt
-    assert prompt == scorer.prompt(instruction="find the fire extinguisher", label="extinguisher")
-
-
-def test_llm_relevance_garbled_reply_is_an_error() -> None:
-    with pytest.raises(RelevanceReplyError, match="no number"):
-        LLMRelevance(FakeCompleter("I think so")).score(instruction="find the chair", label="sofa")
 
 
 # ----------------------------------------------------------------------------------------------

@@ -28,7 +28,7 @@ def test_malformed_mission_reports_file_line_and_column(
 
 def test_missing_mission_file(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["run", str(tmp_path / "none.yaml"), "--scene", "office"]) == 2
-    assert "does not exist" in capsys.readouterr().err
+    assert capsys.readouterr().err == f"{tmp_path / 'none.yaml'}:1:1: mission file not found\n"
 
 
 def test_unknown_strategy(capsys: pytest.CaptureFixture[str]) -> None:

@@ -16,6 +16,7 @@ from semexp_bt.core.scene import SceneSpec
 from semexp_bt.core.types import InvalidInputError
 from sims.catalogue import UnknownSceneError, build_scene, list_scenes, scene_summary
 from sims.geodesic import GeodesicOracle
+from sims.naming import named_objects
 from sims.occupancy import GridGeometry, rasterise_object
 from sims.scenes import placement
 from sims.scenes.placement import GOAL_SUCCESS_RADIUS_M, SceneDataError, load_scene_data
@@ -84,7 +85,9 @@ def test_roles_labels_and_sizes_match_the_docs(name: str) -> None:
         assert goal_label.split()[-1] in spec.instruction
         distractors = {obj.label for obj in spec.objects if obj.role == "distractor"}
         assert distractors == distractor_labels
-        assert all(obj.category != spec.goal_category for obj in spec.objects if obj.role == "distractor")
+        # The scene's own instruction names the goal and never a distractor (sims/naming.py).
+        named = named_objects(spec, spec.instruction)
+        assert spec.goal in named and not any(obj.role == "distractor" for obj in named)
         assert [obj.object_id for obj in spec.objects] == list(range(len(spec.objects)))
         assert len({obj.name for obj in spec.objects}) == len(spec.objects)
         assert roles.count("wall") == 4

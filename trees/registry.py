@@ -664,14 +664,17 @@ def product_behaviours() -> list[NodeSpec]:
     from behaviours.all_instructions_found import AllInstructionsFound
     from behaviours.arbitrate import Arbitrate
     from behaviours.back_up import BackUp
+    from behaviours.clear_costmap import ClearCostmapAroundRobot
     from behaviours.clearance_guard import ClearanceGuard
+    from behaviours.compute_path import ComputePathToSubgoal
     from behaviours.confirm_target import ConfirmTarget
     from behaviours.decide import Decide
     from behaviours.fall_guard import FallGuard
+    from behaviours.follow_path import FollowPath
     from behaviours.gait import Gait
-    from behaviours.local_plan import LocalPlan
     from behaviours.lower_subgoal_potential import LowerSubgoalPotential
     from behaviours.mission_budget_guard import MissionBudgetGuard
+    from behaviours.nav_failure_is import NavFailureIs
     from behaviours.next_instruction import NextInstruction
     from behaviours.perceive import Perceive
     from behaviours.rate_limiter import RateLimiter
@@ -679,9 +682,12 @@ def product_behaviours() -> list[NodeSpec]:
     from behaviours.seed_master_node import SeedMasterNode
     from behaviours.set_subgoal_to_start import SetSubgoalToStart
     from behaviours.sim_timeout import SimTimeout
+    from behaviours.spin import Spin
     from behaviours.stop_robot import StopRobot
     from behaviours.stuck_guard import StuckGuard
+    from behaviours.update_costmap import UpdateCostmap
     from behaviours.update_memory import UpdateMemory
+    from behaviours.wait import Wait
 
     return [
         behaviour_spec(RateLimiter),
@@ -693,7 +699,9 @@ def product_behaviours() -> list[NodeSpec]:
         behaviour_spec(Arbitrate),
         behaviour_spec(UpdateMemory),
         behaviour_spec(Decide),
-        behaviour_spec(LocalPlan),
+        behaviour_spec(UpdateCostmap),
+        behaviour_spec(ComputePathToSubgoal),
+        behaviour_spec(FollowPath),
         behaviour_spec(Gait),
         behaviour_spec(ConfirmTarget),
         behaviour_spec(StopRobot),
@@ -703,7 +711,11 @@ def product_behaviours() -> list[NodeSpec]:
         behaviour_spec(ClearanceGuard),
         behaviour_spec(StuckGuard),
         # recovery
+        behaviour_spec(NavFailureIs),
+        behaviour_spec(ClearCostmapAroundRobot),
+        behaviour_spec(Spin),
         behaviour_spec(BackUp),
+        behaviour_spec(Wait),
         behaviour_spec(LowerSubgoalPotential),
         # mission-level
         behaviour_spec(NextInstruction),

@@ -9,7 +9,7 @@ MuJoCo renderer; a lexical run needs no torch).
 
 Example:
     >>> sorted(RELEVANCE_SCORERS)
-    ['embedding', 'lexical']
+    ['embedding', 'hybrid', 'lexical', 'llm']
     >>> build_relevance("lexical").score(instruction="find the red chair", label="chair") > 0.5
     True
 """
@@ -17,7 +17,7 @@ Example:
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, TypeVar, cast
 
 from semexp_bt.app.strategies import Strategy
@@ -28,7 +28,8 @@ if TYPE_CHECKING:
     from robots.gait_policy import GaitController
     from robots.interface import Fidelity, Robot
     from semexp_bt.core.scene import SceneSpec
-    from semexp_bt.nav.planner import LocalPlanner
+    from semexp_bt.nav.controller import PathController
+    from semexp_bt.perception.adapters.stack import ModelStack
     from semexp_bt.perception.interface import PerceptionSource
 
 
@@ -46,6 +47,10 @@ class ComponentRequest:
         fidelity: ``kinematic`` or ``dynamic``.
         scene: the simulated scene, for simulated components (None on a real robot).
         start_pose: where a simulated robot starts.
+        models: the real models of a models profile, shared by the ``models`` perception source and the
+            ``llm`` relevance scorer (None when the run names no profile).
+        robot_options: backend-specific options (``ros2``: ``profile``, the robot profile's path or None;
+            ``simulation``, whether to read the simulation bridge's ``/sim/...`` topics).
     """
 
     seed: int
@@ -53,6 +58,17 @@ class ComponentRequest:
     fidelity: Fidelity = "kinematic"
     scene: SceneSpec | None = None
     start_pose: Pose2D | None = None
+    models: ModelStack | None = None
+
+    robot_options: Mapping[str, Any] = field(default_factory=dict)
+
+    def require_models(self, component: str) -> ModelStack:
+        """The models profile's stack, or a clear error naming the component that needs one."""
+        if self.models is None:
+            raise InvalidInputError(
+                f"{component} needs a models profile (give --models, or --vlm-url/--llm-url)"
+            )
+        return self.models
 
     def require_scene(self, component: str) -> SceneSpec:
         """The simulated scene, or a clear error naming the component that needs one."""
@@ -71,6 +87,16 @@ def _mujoco_robot(request: ComponentRequest) -> Robot:
     )
 
 
+def _ros2_robot(request: ComponentRequest) -> Robot:
+    from robots.ros2_backend import Ros2Robot
+    from robots.ros2_profile import load_ros2_profile
+
+    options = request.robot_options
+    return Ros2Robot(
+        load_ros2_profile(options.get("profile")), simulation=bool(options.get("simulation", False))
+    )
+
+
 def _emulated_perception(request: ComponentRequest) -> PerceptionSource:
     from sims.perception_emulator import PerceptionEmulator
 
@@ -84,37 +110,73 @@ def _emulated_perception(request: ComponentRequest) -> PerceptionSource:
     )
 
 
-def _embedding_relevance() -> CachedRelevance:
+def _model_perception(request: ComponentRequest) -> PerceptionSource:
+    strategy = request.strategy
+    return request.require_models("the models perception source").perception(
+        enable_vlm=strategy.enable_vlm, enable_detector=strategy.enable_detector
+    )
+
+
+def _embedding_relevance(request: ComponentRequest | None) -> CachedRelevance:
     from semexp_bt.perception.embedding_relevance import shared_embedding_relevance
 
     return CachedRelevance(shared_embedding_relevance())
 
 
-def _lexical_relevance() -> CachedRelevance:
+def _hybrid_relevance(request: ComponentRequest | None) -> CachedRelevance:
+    from semexp_bt.core.relevance import HybridRelevance
+    from semexp_bt.perception.embedding_relevance import shared_embedding_relevance
+
+    return CachedRelevance(HybridRelevance(shared_embedding_relevance()))
+
+
+def _lexical_relevance(request: ComponentRequest | None) -> CachedRelevance:
     from semexp_bt.core.relevance import LexicalRelevance
 
     return CachedRelevance(LexicalRelevance())
 
 
-def _depth_arc_planner() -> LocalPlanner:
-    from semexp_bt.nav.planner import DepthArcPlanner
+def _llm_relevance(request: ComponentRequest | None) -> CachedRelevance:
+    if request is None:
+        raise InvalidInputError(
+            "the llm relevance scorer needs a models profile (give --models or --llm-url)"
+        )
+    return CachedRelevance(request.require_models("the llm relevance scorer").relevance())
 
-    return DepthArcPlanner()
+
+def _dwb_controller() -> PathController:
+    from semexp_bt.nav.dwb import DwbController
+
+    return DwbController()
+
+
+def _pure_pursuit_controller() -> PathController:
+    from semexp_bt.nav.pure_pursuit import RegulatedPurePursuit
+
+    return RegulatedPurePursuit()
 
 
 #: Robot backends: name -> builder.
-ROBOT_BACKENDS: dict[str, Callable[[ComponentRequest], Robot]] = {"mujoco": _mujoco_robot}
+ROBOT_BACKENDS: dict[str, Callable[[ComponentRequest], Robot]] = {
+    "mujoco": _mujoco_robot,
+    "ros2": _ros2_robot,
+}
 #: Perception sources: name -> builder.
 PERCEPTION_SOURCES: dict[str, Callable[[ComponentRequest], PerceptionSource]] = {
-    "emulator": _emulated_perception
+    "emulator": _emulated_perception,
+    "models": _model_perception,
 }
 #: Relevance scorers S in [0, 1]: name -> builder of a cached scorer (a fresh cache per mission).
-RELEVANCE_SCORERS: dict[str, Callable[[], CachedRelevance]] = {
+RELEVANCE_SCORERS: dict[str, Callable[[ComponentRequest | None], CachedRelevance]] = {
     "embedding": _embedding_relevance,
+    "hybrid": _hybrid_relevance,
     "lexical": _lexical_relevance,
+    "llm": _llm_relevance,
 }
-#: Local planners: name -> builder.
-PLANNERS: dict[str, Callable[[], LocalPlanner]] = {"depth_arc": _depth_arc_planner}
+#: Path-following controllers on the costmap (docs/planner.md compares them): name -> builder.
+PLANNERS: dict[str, Callable[[], PathController]] = {"dwb": _dwb_controller, "rpp": _pure_pursuit_controller}
+#: The controller a mission uses unless told otherwise.
+DEFAULT_PLANNER = "rpp"
 
 _T = TypeVar("_T")
 
@@ -136,13 +198,14 @@ def build_perception(name: str, request: ComponentRequest) -> PerceptionSource:
     return _lookup(PERCEPTION_SOURCES, "perception source", name)(request)
 
 
-def build_relevance(name: str) -> CachedRelevance:
-    """The relevance scorer called ``name``, behind a fresh per-mission cache."""
-    return _lookup(RELEVANCE_SCORERS, "relevance scorer", name)()
+def build_relevance(name: str, request: ComponentRequest | None = None) -> CachedRelevance:
+    """The relevance scorer called ``name``, behind a fresh per-mission cache (``llm`` needs a request
+    with a models profile)."""
+    return _lookup(RELEVANCE_SCORERS, "relevance scorer", name)(request)
 
 
-def build_planner(name: str) -> LocalPlanner:
-    """The local planner called ``name``."""
+def build_planner(name: str) -> PathController:
+    """The path-following controller called ``name``."""
     return _lookup(PLANNERS, "planner", name)()
 
 

@@ -22,9 +22,8 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from semexp_bt.core.config import ConfigError, SemExpConfig, config_from_dict, deep_merge
+from semexp_bt.files.yaml_source import YamlSourceError, load_yaml_file
 
 
 def resolve_config(
@@ -65,17 +64,17 @@ def resolve_config(
 def read_config_file(path: Path) -> dict[str, Any]:
     """The overrides in a YAML config file (top level: any of ``arbitration``, ``memory``, ``decision``).
 
+    The file is read by the product's one safe YAML reader (``semexp_bt.files.yaml_source``): not a regular file,
+    too big, not UTF-8, tabs, deep nesting, alias bombs, duplicate keys and non-plain tags are refused.
+
     Raises:
-        ConfigError: naming the file when it cannot be read, is not YAML, or is not a mapping of valid keys.
+        ConfigError: one line naming the file (and the line and column where there is one) when it
+            cannot be read, is not plain YAML, or is not a mapping of valid keys.
     """
     try:
-        text = Path(path).read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"{path}: cannot read config file: {exc}") from exc
-    try:
-        loaded = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        raise ConfigError(f"{path}: invalid YAML: {exc}") from exc
+        loaded = load_yaml_file(path)
+    except YamlSourceError as exc:
+        raise ConfigError(f"config file {exc}") from None
     if loaded is None:
         return {}
     if not isinstance(loaded, dict):

@@ -14,16 +14,18 @@ the same tree, selected with ``strategy``; see ``semexp_bt/app/strategies.yaml``
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, TextIO, cast
+from typing import TYPE_CHECKING, Any, TextIO, cast
 
 import numpy as np
 
 from semexp_bt.app.components import (
+    DEFAULT_PLANNER,
     ComponentRequest,
     build_gait,
     build_perception,
@@ -33,14 +35,25 @@ from semexp_bt.app.components import (
 )
 from semexp_bt.app.configuration import resolve_config
 from semexp_bt.app.recorder import TickRecorder
-from semexp_bt.app.runner import MissionComponents, MissionResult, PrivilegedKnowledge, run_mission
+from semexp_bt.app.runner import (
+    MissionComponents,
+    MissionResult,
+    PrivilegedKnowledge,
+    TickObserver,
+    run_mission,
+)
 from semexp_bt.app.strategies import Strategy, resolve_strategy
 from semexp_bt.core.metrics import DEFAULT_CLEARANCE_M, DEFAULT_SUCCESS_RADIUS_M
 from semexp_bt.core.scene import SceneObject, SceneSpec
 from sims.catalogue import build_scene
+from sims.episode_scoring import score_episode, snap_to_free
 from sims.episodes import Episode, sample_episode
 from sims.geodesic import GeodesicOracle
 from trees.loader import parse_mission
+
+if TYPE_CHECKING:
+    from semexp_bt.app.viewer.observer import ViewOptions
+    from semexp_bt.perception.model_config import ModelsProfile
 
 #: ``trajectory_xy`` keeps a base position each time the robot has moved this far (m) since the last kept one.
 TRAJECTORY_STEP_M = 0.1
@@ -62,8 +75,12 @@ class EpisodeOptions:
         instruction: overrides the mission's/scene's instruction.
         fidelity: ``kinematic`` or ``dynamic``; None takes the mission's setting.
         strategy: a named strategy (``ours`` by default) from ``semexp_bt/app/strategies.yaml``.
-        relevance: ``embedding`` (default, offline MiniLM) or ``lexical`` (no torch).
-        planner: the local planner's name (``semexp_bt.app.components.PLANNERS``).
+        relevance: ``embedding`` (default, offline MiniLM), ``lexical`` (no torch) or ``llm`` (needs
+            ``models``).
+        perception: ``emulator`` (default) or ``models`` (the real models of ``models``; the simulation
+            then runs at wall-clock pace unless the profile says otherwise).
+        models: the models profile for ``perception="models"`` and ``relevance="llm"``.
+        planner: the path-following controller's name (``semexp_bt.app.components.PLANNERS``).
         config_overrides: SemExpConfig overrides from the command line (the last layer).
         display: print the tick-level display to ``display_stream``.
         display_stream: where the display prints (stdout by default).
@@ -74,6 +91,7 @@ class EpisodeOptions:
         keep_trajectory: add ``trajectory_xy`` (the base path, subsampled every
             :data:`TRAJECTORY_STEP_M`) and ``memory_snapshot`` (``TopologicalMemory.snapshot()`` at the
             end) to the record, for the harness's trajectory plots.
+        view: serve and/or save the browser view (``semexp_bt.app.viewer``), or None.
     """
 
     mission_path: Path
@@ -83,7 +101,9 @@ class EpisodeOptions:
     fidelity: str | None = None
     strategy: str = "ours"
     relevance: str = "embedding"
-    planner: str = "depth_arc"
+    perception: str = "emulator"
+    models: ModelsProfile | None = None
+    planner: str = DEFAULT_PLANNER
     config_overrides: Mapping[str, Any] | None = None
     display: bool = False
     display_stream: TextIO | None = None
@@ -92,6 +112,7 @@ class EpisodeOptions:
     clearance_m: float = DEFAULT_CLEARANCE_M
     max_sim_s: float = 900.0
     keep_trajectory: bool = False
+    view: ViewOptions | None = None
 
 
 def run_episode(options: EpisodeOptions) -> dict[str, Any]:
@@ -116,25 +137,46 @@ def run_episode(options: EpisodeOptions) -> dict[str, Any]:
         strategy_source=f"strategy '{strategy.name}'",
         mission_source=str(options.mission_path),
     )
+    stack = None
+    if options.models is not None:
+        from semexp_bt.perception.adapters.stack import ModelStack
+
+        stack = ModelStack(options.models)
     request = ComponentRequest(
         seed=options.seed,
         strategy=strategy,
         fidelity=cast(Any, fidelity),
         scene=scene,
         start_pose=episode.start,
+        models=stack,
     )
+    recorder = TickRecorder(path=options.record_path, display=options.display, stream=options.display_stream)
+    observers: list[TickObserver] = [recorder]
+    if options.view is not None:
+        from semexp_bt.app.viewer.observer import ViewObserver
+
+        observers.append(ViewObserver(options.view, recorder=recorder))
+    factor = options.models.simulation.real_time_factor if options.models is not None else 0.0
+    if options.perception == "models" and factor > 0.0:
+        from semexp_bt.app.pacing import WallClockPacer
+
+        observers.append(WallClockPacer(real_time_factor=factor))
     robot = build_robot("mujoco", request)
     try:
         components = MissionComponents(
             robot=robot,
-            perception=build_perception("emulator", request),
-            relevance=build_relevance(options.relevance),
+            perception=build_perception(options.perception, request),
+            relevance=build_relevance(options.relevance, request),
             planner=build_planner(options.planner),
             gait=build_gait(cast(Any, fidelity)),
         )
         privileged = None
         if strategy.switches.get("decision") == "oracle":
             privileged = privileged_goal(scene, oracle, success_radius_m=options.success_radius_m)
+        elif strategy.switches.get("decision") == "oracle_nav":
+            privileged = privileged_navigation(
+                scene, oracle, start=episode.start, success_radius_m=options.success_radius_m
+            )
         result = run_mission(
             mission=mission,
             components=components,
@@ -144,11 +186,12 @@ def run_episode(options: EpisodeOptions) -> dict[str, Any]:
             strategy_switches=strategy.switches,
             start_pose=episode.start,
             max_time_s=options.max_sim_s,
-            observers=[
-                TickRecorder(path=options.record_path, display=options.display, stream=options.display_stream)
-            ],
+            observers=observers,
             privileged=privileged,
         )
+        if stack is not None:  # relevance errors no perception result carried (an emulator run)
+            for message in stack.drain_errors():
+                result.services.log_event("perception_error", message=message)
         record = episode_record(
             options=options,
             scene=scene,
@@ -159,12 +202,16 @@ def run_episode(options: EpisodeOptions) -> dict[str, Any]:
             strategy=strategy,
             wall_s=time.perf_counter() - wall_start,
         )
+        if stack is not None:
+            record["models"] = stack.summary()
         if options.keep_trajectory:
             record["trajectory_xy"] = subsample_path(result.positions, step_m=TRAJECTORY_STEP_M)
             record["memory_snapshot"] = result.memory.snapshot()
         return record
     finally:
         robot.close()
+        if stack is not None:
+            stack.close()
 
 
 def privileged_goal(
@@ -186,6 +233,52 @@ def privileged_goal(
     )
 
 
+#: The true map handed to ``oracle_nav`` gets this many rings of occupied cells around the scene bounds
+#: (the walls beyond them, as the oracle's own grid assumes).
+PRIVILEGED_MAP_BORDER_CELLS = 2
+
+
+def privileged_navigation(
+    scene: SceneSpec, oracle: GeodesicOracle, *, start: Any, success_radius_m: float
+) -> PrivilegedKnowledge:
+    """PRIVILEGED, for the ``oracle_nav`` reference strategy (the execution layer's ceiling): the goal, a
+    place to stand within the success radius (the end of the true shortest path from the start), the
+    goal object's point nearest it, and the true occupancy map of the scene (``sims.geodesic``'s grid, not
+    inflated: the navigation stack inflates it by the Go1's own footprint)."""
+    knowledge = privileged_goal(scene, oracle, success_radius_m=success_radius_m)
+    goal_id = scene.goal.object_id
+    path = oracle.path_to_object((start.x_m, start.y_m), goal_id, success_radius_m=success_radius_m)
+    standpoint = (float(path[-1][0]), float(path[-1][1])) if len(path) else knowledge.goal_xy
+    goal_point = nearest_point_on_main_shape(scene.goal, standpoint)
+    geometry = oracle.occupancy.geometry
+    border = PRIVILEGED_MAP_BORDER_CELLS
+    occupied = np.pad(oracle.occupancy.occupied, border, constant_values=True)
+    lower_left = (
+        geometry.x_min_m - border * geometry.resolution_m,
+        geometry.y_min_m - border * geometry.resolution_m,
+    )
+    return dataclasses.replace(
+        knowledge,
+        goal_point_xy=goal_point,
+        standpoint_xy=standpoint,
+        occupancy=(occupied, lower_left, geometry.resolution_m),
+    )
+
+
+def nearest_point_on_main_shape(obj: SceneObject, xy: tuple[float, float]) -> tuple[float, float]:
+    """The point of the object's main box or cylinder nearest ``xy`` (SR measures to that shape:
+    ``SceneObject.boundary_distance_m``)."""
+    dx, dy = xy[0] - obj.position_m[0], xy[1] - obj.position_m[1]
+    if obj.shape == "cylinder":
+        norm = math.hypot(dx, dy)
+        scale = min(1.0, obj.size_m[0] / norm) if norm > 0 else 0.0
+        return (obj.position_m[0] + dx * scale, obj.position_m[1] + dy * scale)
+    c, s = math.cos(obj.yaw_rad), math.sin(obj.yaw_rad)
+    lx = max(-obj.size_m[0], min(obj.size_m[0], c * dx + s * dy))
+    ly = max(-obj.size_m[1], min(obj.size_m[1], -s * dx + c * dy))
+    return (obj.position_m[0] + c * lx - s * ly, obj.position_m[1] + s * lx + c * ly)
+
+
 def subsample_path(positions: list[np.ndarray], *, step_m: float) -> list[list[float]]:
     """``(x, y)`` points of the path, one each time the base moved ``step_m`` since the last kept one."""
     kept: list[list[float]] = []
@@ -196,28 +289,6 @@ def subsample_path(positions: list[np.ndarray], *, step_m: float) -> list[list[f
     if positions and kept[-1] != [round(float(positions[-1][0]), 3), round(float(positions[-1][1]), 3)]:
         kept.append([round(float(positions[-1][0]), 3), round(float(positions[-1][1]), 3)])
     return kept
-
-
-def snap_to_free(
-    oracle: GeodesicOracle, xy: tuple[float, float], *, max_m: float
-) -> tuple[float, float] | None:
-    """The free cell centre nearest ``xy`` within ``max_m`` (memory nodes sit on object surfaces, inside
-    the inflated obstacles; the place the robot would stand to reach them is the nearest free cell)."""
-    if oracle.is_free(xy):
-        return xy
-    geometry = oracle.occupancy.geometry
-    free = oracle.occupancy.free
-    row, col = geometry.cell_of(xy)
-    reach = int(math.ceil(max_m / geometry.resolution_m))
-    r0, r1 = max(row - reach, 0), min(row + reach + 1, free.shape[0])
-    c0, c1 = max(col - reach, 0), min(col + reach + 1, free.shape[1])
-    rows, cols = np.nonzero(free[r0:r1, c0:c1])
-    if rows.size == 0:
-        return None
-    centres = geometry.centre_of(rows + r0, cols + c0)
-    dist = np.hypot(centres[:, 0] - xy[0], centres[:, 1] - xy[1])
-    best = int(np.argmin(dist))
-    return (float(centres[best, 0]), float(centres[best, 1])) if dist[best] <= max_m else None
 
 
 def with_oracle_nodes(
@@ -244,18 +315,6 @@ def with_oracle_nodes(
     return out
 
 
-def _reached_object(
-    scene: SceneSpec, anchor: tuple[float, float], final_xy: tuple[float, float], success_radius_m: float
-) -> SceneObject | None:
-    """The scene object nearest ``anchor`` (the confirmed target, or the final position), if the robot ended
-    within the success radius of it."""
-    candidates = [o for o in scene.objects if o.role != "wall"]
-    reached = min(candidates, key=lambda o: o.boundary_distance_m(anchor), default=None)
-    if reached is not None and reached.boundary_distance_m(final_xy) > success_radius_m:
-        return None
-    return reached
-
-
 def episode_record(
     *,
     options: EpisodeOptions,
@@ -270,35 +329,25 @@ def episode_record(
     """The episode's record: the executive's result scored against the scene's ground truth."""
     goal = scene.goal
     robot = result.services.robot
-    final = robot.base_pose()
-    final_xy = (final.x_m, final.y_m)
-    path = np.asarray(result.positions)
-    path_length = float(np.linalg.norm(np.diff(path, axis=0), axis=1).sum()) if len(path) > 1 else 0.0
-    safety = robot.safety()
-    collisions = [e for e in safety.events if e.kind == "collision"]
-    breaches = [e for e in safety.events if e.kind == "clearance" and e.distance_m < options.clearance_m]
     found = result.found_objects
-    anchor = tuple(found[-1]["position_m"][:2]) if found else final_xy
-    reached = _reached_object(scene, (anchor[0], anchor[1]), final_xy, options.success_radius_m)
-
+    score = score_episode(
+        scene=scene,
+        episode=episode,
+        outcome=result.outcome,
+        found_objects=found,
+        positions=result.positions,
+        final_pose=robot.base_pose(),
+        safety=robot.safety(),
+        success_radius_m=options.success_radius_m,
+        clearance_m=options.clearance_m,
+        instructions=result.instructions,
+    )
     decisions = with_oracle_nodes(
         result.services.decision_log,
         oracle=oracle,
         goal_id=goal.object_id,
         success_radius_m=options.success_radius_m,
     )
-    distance_to_goal = goal.boundary_distance_m(final_xy)
-    declared = result.outcome == "success"
-    # For missions that move on after confirming (search, then return), success is judged where the
-    # robot stood when it confirmed the goal object; for the paper's mission that is the final position.
-    judged_xy = final_xy
-    for entry in found:
-        if (
-            entry.get("robot_xy")
-            and goal.boundary_distance_m(tuple(entry["robot_xy"])) <= options.success_radius_m
-        ):
-            judged_xy = tuple(entry["robot_xy"])
-    judged_distance = goal.boundary_distance_m(judged_xy)
     instructions = result.instructions
     return {
         "scene": scene.name,
@@ -308,31 +357,7 @@ def episode_record(
         "fidelity": fidelity,
         "instruction": instructions[0],
         "instructions": instructions,
-        "goal": {
-            "object_id": goal.object_id,
-            "name": goal.name,
-            "label": goal.label,
-            "category": goal.category,
-            "position_m": list(goal.position_m),
-        },
-        "start_pose": {"x_m": episode.start.x_m, "y_m": episode.start.y_m, "yaw_rad": episode.start.yaw_rad},
-        "outcome": result.outcome,
-        "success_declared": declared,
-        "success": bool(declared and judged_distance <= options.success_radius_m),
-        "success_radius_m": options.success_radius_m,
-        "final_pose": {"x_m": final.x_m, "y_m": final.y_m, "yaw_rad": final.yaw_rad},
-        "distance_to_goal_m": distance_to_goal,
-        "path_length_m": path_length,
-        "geodesic_length_m": float(episode.geodesic_length_m),
-        "collision": bool(collisions or breaches),
-        "collisions": len(collisions),
-        "clearance_breaches": len(breaches),
-        "min_clearance_m": float(safety.min_clearance_m) if math.isfinite(safety.min_clearance_m) else None,
-        "reached_object": None
-        if reached is None
-        else {"name": reached.name, "label": reached.label, "category": reached.category},
-        "reached_category": None if reached is None else reached.category,
-        "goal_category": goal.category,
+        **score,
         "found_objects": found,
         "decisions": decisions,
         "events": result.services.events,

@@ -14,10 +14,11 @@ import py_trees
 from behaviours.services import SERVICES_KEY, MissionServices
 from behaviours.spec import BuildContext
 from blackboard.schema import fresh_board
+from robots.go1 import go1_footprint
+from semexp_bt.core.instruction import instruction_target
 from semexp_bt.core.memory import TopologicalMemory
-from semexp_bt.core.relevance import instruction_target
 from semexp_bt.core.types import Pose2D
-from semexp_bt.nav.local_map import OccupancyMap
+from semexp_bt.nav.costmap import Costmap, CostmapConfig
 from trees.loader import MissionDocument, load_mission
 from trees.registry import NodeRegistry, default_registry
 
@@ -36,7 +37,12 @@ RUNNER_KEYS = (
 
 
 def prepare_board(
-    *, instructions: list[str], start_pose: Pose2D, memory: TopologicalMemory, activity_stream: bool = False
+    *,
+    instructions: list[str],
+    start_pose: Pose2D,
+    memory: TopologicalMemory,
+    activity_stream: bool = False,
+    costmap: Costmap | None = None,
 ) -> py_trees.blackboard.Client:
     """Clear the process-wide blackboard and write the mission's initial state.
 
@@ -45,6 +51,8 @@ def prepare_board(
         start_pose: where the robot starts.
         memory: a fresh topological memory (it lives on the board under ``memory``).
         activity_stream: record blackboard activity (for the display and the tick record).
+        costmap: the costmap the mission maps into (``local_map``); default: an empty one around the start
+            with the Go1's footprint.
 
     Returns:
         The runner's blackboard client (write access to :data:`RUNNER_KEYS`).
@@ -63,7 +71,11 @@ def prepare_board(
     board.mission_outcome = "running"
     board.found_objects = []
     board.subgoal = None
-    board.local_map = OccupancyMap(origin_xy=(start_pose.x_m, start_pose.y_m))
+    if costmap is None:
+        costmap = Costmap(
+            CostmapConfig(), footprint=go1_footprint(), origin_xy=(start_pose.x_m, start_pose.y_m)
+        )
+    board.local_map = costmap
     return board
 
 

@@ -3,9 +3,14 @@
 The recorder is a py_trees visitor: the tree yields each node right after ticking it, so the wall time
 between two consecutive visits is the time that node spent in its own tick (for a leaf, its
 ``update``; for a composite, its own overhead). For each tick it keeps the status of every visited
-node, that per-node time and the blackboard writes from py_trees' activity stream.
+node, that per-node time and the blackboard writes from py_trees' activity stream. A node that a parent
+stopped during the tick (a preempted branch turns INVALID) says so in no visit; the record names such
+nodes under ``stopped`` with their status after the tick, so that the record holds every node's status
+at every tick.
 
 - With a ``path`` it writes one JSON line per tick (``semexp-bt replay FILE`` prints it back).
+- With ``on_record`` (or :meth:`TickRecorder.listen`) it hands each tick's number and JSON line to a
+  callable (the browser view's tick feed and saved recording).
 - With ``display`` it prints, on every tick where a node changed status or a key other than the
   high-rate command keys was written: the tree with statuses and feedback (ASCII, readable in a plain
   terminal), the blackboard changes, the memory's size and the current subgoal.
@@ -17,6 +22,7 @@ from __future__ import annotations
 import json
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TextIO
 
@@ -27,6 +33,7 @@ from blackboard.schema import summarize
 if TYPE_CHECKING:
     from semexp_bt.app.runner import MissionRun
 
+_STATUS_BY_NAME = {status.name: status for status in py_trees.common.Status}
 #: Keys written at the gait or planner rate; the display does not treat them as news.
 HIGH_RATE_KEYS = frozenset({"/cmd_twist", "/cmd_stamp_s", "/plan"})
 
@@ -61,18 +68,38 @@ class TickRecorder:
         path: JSONL output, or None.
         display: show the tick-level display.
         stream: where the display prints (stdout by default).
+        on_record: called with each tick's number and JSON line (without the newline), or None.
     """
 
-    def __init__(self, *, path: Path | None, display: bool, stream: TextIO | None = None) -> None:
+    def __init__(
+        self,
+        *,
+        path: Path | None,
+        display: bool,
+        stream: TextIO | None = None,
+        on_record: Callable[[int, str], None] | None = None,
+    ) -> None:
         self.path = path
         self.display = display
         self.stream = stream or sys.stdout
-        self.wants_activity_stream = display or path is not None
+        self.on_record = on_record
+        self.wants_activity_stream = display or path is not None or on_record is not None
         self._tree: py_trees.trees.BehaviourTree | None = None
         self._board: Any = None
         self._file: TextIO | None = None
         self._previous: dict[str, str] = {}
+        self._nodes: list[py_trees.behaviour.Behaviour] = []
+        self._last: list[py_trees.common.Status] = []
         self._visitor = _TimingVisitor()
+
+    def listen(self, on_record: Callable[[int, str], None]) -> None:
+        """Hand every tick's number and JSON line to ``on_record`` (before the mission starts)."""
+        self.on_record = on_record
+        self.wants_activity_stream = True
+
+    def visited_statuses(self) -> dict[str, str]:
+        """The status of every node ticked in the last tick, by name."""
+        return {name: status for name, (status, _, _) in self._visitor.statuses.items()}
 
     def start(self, run: MissionRun) -> None:
         """Attach the timing visitor to the tree and open the record file."""
@@ -81,9 +108,11 @@ class TickRecorder:
         self._tree, self._board = run.tree, run.board
         run.tree.visitors.append(self._visitor)
         run.tree.add_pre_tick_handler(lambda _tree: self._visitor.initialise())
+        self._nodes = list(run.tree.root.iterate())
+        self._last = [node.status for node in self._nodes]
         if self.path is not None:
             Path(self.path).parent.mkdir(parents=True, exist_ok=True)
-            self._file = open(self.path, "w")  # noqa: SIM115 - closed in finish()
+            self._file = open(self.path, "w")
 
     def after_tick(self, run: MissionRun) -> None:
         """Record/show the tick that just ran."""
@@ -116,27 +145,49 @@ class TickRecorder:
             return
         statuses = self._visitor.statuses
         writes = self._drain_activity()
-        if self._file is not None:
-            self._file.write(
-                json.dumps(
-                    {
-                        "tick": tick,
-                        "stamp_s": round(stamp_s, 4),
-                        "nodes": {
-                            name: {"status": s, "ms": round(ms, 4), "feedback": fb}
-                            for name, (s, ms, fb) in statuses.items()
-                        },
-                        "writes": writes,
-                    }
-                )
-                + "\n"
-            )
+        if self._file is not None or self.on_record is not None:
+            record: dict[str, Any] = {
+                "tick": tick,
+                "stamp_s": round(stamp_s, 4),
+                "nodes": {
+                    name: {"status": s, "ms": round(ms, 4), "feedback": fb}
+                    for name, (s, ms, fb) in statuses.items()
+                },
+                "writes": writes,
+            }
+            stopped = self._stopped_nodes(statuses)
+            if stopped:
+                record["stopped"] = stopped
+            line = json.dumps(record)
+            if self._file is not None:
+                self._file.write(line + "\n")
+            if self.on_record is not None:
+                self.on_record(tick, line)
         if self.display:
             changed = {name: s for name, (s, _, _) in statuses.items() if self._previous.get(name) != s}
             news = [w for w in writes if w["key"] not in HIGH_RATE_KEYS]
             if changed or news:
                 self._show(tick, stamp_s, news)
             self._previous.update({name: s for name, (s, _, _) in statuses.items()})
+
+    def _stopped_nodes(self, statuses: dict[str, tuple[str, float, str]]) -> dict[str, str]:
+        """Nodes whose status after the tick differs from what their visit reported, by name.
+
+        A parent may stop a child it did not tick (a selector with memory resuming a later child stops
+        the earlier ones) or one it ticked earlier in the same tick (a parallel that succeeds stops its
+        running guards): both end INVALID without a visit saying so. One pass over the nodes' statuses,
+        compared by identity (the enum's ``name`` is a slow property), finds them.
+        """
+        stopped = {}
+        last = self._last
+        for i, node in enumerate(self._nodes):
+            status = node.status
+            visit = statuses.get(node.name)
+            expected = last[i] if visit is None else _STATUS_BY_NAME[visit[0]]
+            if status is not expected:
+                stopped[node.name] = status.name
+            last[i] = status
+        return stopped
 
     def _show(self, tick: int, stamp_s: float, news: list[dict[str, Any]]) -> None:
         out = self.stream

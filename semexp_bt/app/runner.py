@@ -32,11 +32,12 @@ import py_trees
 from behaviours.services import MissionServices
 from robots.interface import Robot
 from semexp_bt.app.executive import MissionTree, build_tree, prepare_board
+from semexp_bt.core.clock import is_due
 from semexp_bt.core.config import SemExpConfig
 from semexp_bt.core.memory import TopologicalMemory
 from semexp_bt.core.relevance import RelevanceScorer
 from semexp_bt.core.types import Pose2D, Twist
-from semexp_bt.nav.planner import LocalPlanner
+from semexp_bt.nav.controller import PathController
 from semexp_bt.perception.interface import PerceptionSource
 from trees.loader import MissionDocument
 from trees.registry import NodeRegistry
@@ -56,7 +57,7 @@ class MissionComponents:
         robot: the backend (MuJoCo, ROS 2, or a test robot).
         perception: the evidence source (emulator, model adapters, or a fake).
         relevance: the relevance scorer S in [0, 1] (cached).
-        planner: the local planner.
+        planner: the path-following controller.
         gait: ``(robot, twist) -> None`` realising twists with joint targets; None when the robot walks
             by itself.
     """
@@ -64,7 +65,7 @@ class MissionComponents:
     robot: Robot
     perception: PerceptionSource
     relevance: RelevanceScorer
-    planner: LocalPlanner
+    planner: PathController
     gait: Callable[[Robot, Twist], None] | None = None
 
 
@@ -75,10 +76,20 @@ class PrivilegedKnowledge:
     Attributes:
         goal_xy: the true goal position ``(x, y)`` in ``map``.
         goal_distance: ``(x, y) -> true geodesic distance (m)`` to the goal's success region.
+        goal_point_xy: for ``oracle_nav``: the point of the goal object's footprint nearest
+            ``standpoint_xy`` (the subgoal it drives to and faces).
+        standpoint_xy: for ``oracle_nav``: the free point within the success radius of the goal object at
+            the end of the true shortest path from the start.
+        occupancy: for ``oracle_nav``: the true occupancy of the scene, ``(occupied (rows along y, cols
+            along x), lower-left corner (x, y), cell side)``; the mission's costmap starts as this map
+            and is not changed by depth frames.
     """
 
     goal_xy: tuple[float, float]
     goal_distance: Callable[[tuple[float, float]], float] | None = None
+    goal_point_xy: tuple[float, float] | None = None
+    standpoint_xy: tuple[float, float] | None = None
+    occupancy: tuple[np.ndarray, tuple[float, float], float] | None = None
 
 
 @dataclass
@@ -188,7 +199,8 @@ def run_mission(
         start_pose: where the mission starts (the master node, the map's origin); None reads the robot.
         max_time_s: a hard cap on robot time, whatever the mission's budget.
         observers: see every tick (recorder, display, viewer).
-        privileged: PRIVILEGED goal knowledge for the ``oracle`` reference strategy only.
+        privileged: PRIVILEGED goal knowledge (and for ``oracle_nav`` the true map) for the reference
+            strategies only.
         registry: the node registry (default: the product's).
     """
     robot = components.robot
@@ -205,14 +217,18 @@ def run_mission(
         budget_s=float(settings.budget_s),
     )
     if privileged is not None:
-        services.privileged_goal_xy = privileged.goal_xy
+        services.privileged_goal_xy = privileged.goal_point_xy or privileged.goal_xy
         services.privileged_goal_distance = privileged.goal_distance
+        services.privileged_standpoint_xy = privileged.standpoint_xy
     board = prepare_board(
         instructions=list(instructions),
         start_pose=start_pose if start_pose is not None else robot.base_pose(),
         memory=TopologicalMemory(config.memory),
         activity_stream=any(observer.wants_activity_stream for observer in observers),
     )
+    if privileged is not None and privileged.occupancy is not None:
+        occupied, lower_left_xy, resolution_m = privileged.occupancy
+        board.local_map.set_known(occupied, lower_left_xy=lower_left_xy, resolution_m=resolution_m)
     tree = build_tree(mission=mission, services=services, registry=registry)
     run = MissionRun(tree=tree, board=board, services=services)
     for observer in observers:
@@ -233,7 +249,7 @@ def run_mission(
         status = tree.root.status
         if status != py_trees.common.Status.RUNNING:
             break
-        if robot.now_s() >= stop_after_s:
+        if is_due(now_s=robot.now_s(), due_s=stop_after_s):
             board.mission_outcome = "budget_exceeded"
             break
         robot.advance(TICK_PERIOD_S)

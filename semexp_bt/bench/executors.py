@@ -197,7 +197,7 @@ def _import_ray_for(address: str) -> Any:
     if loopback and "ray" not in sys.modules:
         os.environ.setdefault(RAY_LOOPBACK_SWITCH, "0")
     try:
-        import ray  # type: ignore[import-not-found]
+        import ray
     except ImportError:
         raise HarnessError(
             "--ray-address needs Ray, which is not installed: pip install -e '.[cluster]'"

@@ -118,6 +118,7 @@ def to_episode_record(row: Mapping[str, Any]) -> EpisodeRecord:
             geodesic_length_m=float(row["geodesic_length_m"]),
             collision=bool(row["collision"]),
             decisions=steps,  # type: ignore[arg-type]
+            reached_named=row.get("reached_named"),
         )
     except KeyError as exc:
         where = f"{row.get('scene')}/{row.get('seed')}/{row.get('strategy')}"

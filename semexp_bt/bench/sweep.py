@@ -25,12 +25,13 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
+from robots.interface import FIDELITIES
+from semexp_bt.app.components import RELEVANCE_SCORERS
 from semexp_bt.core.metrics import DEFAULT_CLEARANCE_M, DEFAULT_SUCCESS_RADIUS_M
 
 #: Bumped when the row format or the meaning of a key changes (it is part of the config hash).
 ROW_SCHEMA_VERSION = 1
-FIDELITIES = ("kinematic", "dynamic")
-RELEVANCES = ("embedding", "lexical")
+RELEVANCES = tuple(RELEVANCE_SCORERS)
 #: Default wall-time limit per episode (s). A kinematic episode of the 600 s mission takes about 50 s
 #: on one core of the development machine; ten times that means something is wrong.
 DEFAULT_EPISODE_TIMEOUT_S = 600.0
@@ -83,6 +84,7 @@ class EpisodeTask:
         clearance_m: clearance threshold for OASR.
         keep_trajectory: ask the runner for ``trajectory_xy`` and ``memory_snapshot``.
         timeout_s: wall-time limit of this episode.
+        instruction: the instruction, when the sweep overrides the mission's and the scene's.
     """
 
     key: EpisodeKey
@@ -94,6 +96,7 @@ class EpisodeTask:
     clearance_m: float
     keep_trajectory: bool
     timeout_s: float
+    instruction: str | None = None
 
 
 #: What runs one episode: task -> the runner's record (a dict). Must be a module-level function so
@@ -119,6 +122,8 @@ class SweepSpec:
         timeout_s: wall-time limit per episode.
         trajectories_per_cell: keep the trajectory and memory of the first this-many seeds of each
             (scene, strategy) for the report's plots.
+        instruction: every episode's instruction (the phrasing benchmark); None keeps the mission's and
+            the scene's. It is part of the config hash only when set, so other sweeps keep their keys.
     """
 
     scenes: tuple[str, ...]
@@ -133,6 +138,7 @@ class SweepSpec:
     clearance_m: float = DEFAULT_CLEARANCE_M
     timeout_s: float = DEFAULT_EPISODE_TIMEOUT_S
     trajectories_per_cell: int = 1
+    instruction: str | None = None
 
     def __post_init__(self) -> None:
         for name in ("scenes", "seeds", "strategies"):
@@ -168,6 +174,8 @@ class SweepSpec:
             "success_radius_m": float(self.success_radius_m),
             "clearance_m": float(self.clearance_m),
         }
+        if self.instruction is not None:
+            payload["instruction"] = self.instruction
         canonical = json.dumps(payload, sort_keys=True, separators=(",", ":"), default=str)
         return hashlib.sha256(canonical.encode()).hexdigest()[:12]
 
@@ -196,6 +204,7 @@ class SweepSpec:
                 clearance_m=float(self.clearance_m),
                 keep_trajectory=seed in keep_seeds,
                 timeout_s=float(self.timeout_s),
+                instruction=self.instruction,
             )
             for seed in self.seeds
             for scene in self.scenes

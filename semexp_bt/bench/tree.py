@@ -5,11 +5,11 @@ with a synthetic open-floor depth image) and :class:`sims.scripted_perception.Sc
 answer after 2.5 s of backend time: two unexplored directions, and after some views a detection of the
 target straight ahead). Two configurations are timed:
 
-- ``tree``: the local planner replaced by a pure-pursuit stand-in that costs microseconds, no occupancy
-  map, and a camera that returns one pre-rendered frame, so the figure is py_trees plus our behaviours
-  plus the paper's arbitration, memory and decision maths;
-- ``tree+navigation``: the real depth-arc planner at 12 Hz, the occupancy map (integration of every
-  frame, a path once a second, frontiers) and the NullRobot's ray-cast camera.
+- ``tree``: the controller replaced by a pure-pursuit stand-in that costs microseconds, a known empty
+  costmap (no depth integration), and a camera that returns one pre-rendered frame, so the figure is
+  py_trees plus our behaviours plus the paper's arbitration, memory and decision maths;
+- ``tree+navigation``: the real navigation stack (costmap from the NullRobot's ray-cast depth at 6 Hz,
+  the global planner, regulated pure pursuit at 12 Hz, costmap frontiers).
 
 For each, per-tick time of ``tree.tick()`` (the robot's ``advance`` is not timed) is reported as median,
 p99 and max over ``ticks`` ticks, seeded and deterministic in its sequence of events: wall time, and the
@@ -34,7 +34,8 @@ from semexp_bt.core.config import SemExpConfig
 from semexp_bt.core.memory import TopologicalMemory
 from semexp_bt.core.relevance import CachedRelevance, LexicalRelevance
 from semexp_bt.core.types import Detection, Observation, Pose2D, SceneEvidence, SceneProposal, Twist
-from semexp_bt.nav.planner import DepthArcPlanner, PlanResult
+from semexp_bt.nav.controller import ControlResult
+from semexp_bt.nav.pure_pursuit import RegulatedPurePursuit
 from semexp_bt.perception.interface import PerceptionResult
 from sims.scripted_perception import ScriptedPerception
 
@@ -44,31 +45,16 @@ FLOOR_MS = 1.0
 
 
 class PurePursuitStandIn:
-    """A constant-cost planner stand-in: turn toward the goal, drive when roughly facing it."""
+    """A constant-cost controller stand-in: turn toward the plan's end, drive when roughly facing it."""
 
-    #: It reads no depth at all; None (any pixel) keeps the frame whole, as the benchmark always had it.
-    sampled_pixels = None
+    name = "stand-in"
 
-    def plan(self, *, goal_base_xy: tuple[float, float], **_: Any) -> PlanResult:
-        distance = math.hypot(*goal_base_xy)
-        bearing = math.atan2(goal_base_xy[1], goal_base_xy[0])
-        if distance < 0.5:
-            return PlanResult(
-                Twist.zero(), "arrived", math.inf, 0.0, 0.0, 0.0, distance, bearing, {}, np.zeros((0, 2))
-            )
+    def compute(self, *, plan: Any, pose: Pose2D, **_: Any) -> ControlResult:
+        end = plan.path_xy[-1]
+        dx, dy = end[0] - pose.x_m, end[1] - pose.y_m
+        bearing = math.remainder(math.atan2(dy, dx) - pose.yaw_rad, math.tau)
         v = 0.5 if abs(bearing) < 0.5 else 0.0
-        return PlanResult(
-            Twist(v, 0.0, max(-1.0, min(1.0, 1.5 * bearing))),
-            "tracking",
-            math.inf,
-            0.0,
-            v,
-            0.0,
-            distance,
-            bearing,
-            {},
-            np.zeros((0, 2)),
-        )
+        return ControlResult(Twist(v, 0.0, max(-1.0, min(1.0, 1.5 * bearing))), "tracking")
 
     def reset(self) -> None:
         return None
@@ -99,6 +85,11 @@ def _script() -> list[Any]:
     return [directions] * 8 + [target_ahead] * 4
 
 
+def _empty_known_map(costmap: Any) -> None:
+    """Make the costmap a known empty floor (no depth integration, a plan only when the subgoal changes)."""
+    costmap.set_known(np.zeros((8, 8), dtype=bool), lower_left_xy=(-50.0, -50.0), resolution_m=12.5)
+
+
 def time_ticks(*, planner: Any, ticks: int, seed: int, navigation: bool) -> dict[str, float]:
     robot = NullRobot(start_pose=Pose2D(0.0, 0.0, 0.0), render_once=not navigation)
     config = SemExpConfig()
@@ -117,7 +108,7 @@ def time_ticks(*, planner: Any, ticks: int, seed: int, navigation: bool) -> dict
         memory=TopologicalMemory(config.memory),
     )
     if not navigation:
-        board.local_map = None
+        _empty_known_map(board.local_map)
     tree = build_tree(MISSION, services=services)
     tree.setup()
     samples = np.empty(ticks)
@@ -136,7 +127,7 @@ def time_ticks(*, planner: Any, ticks: int, seed: int, navigation: bool) -> dict
                 memory=TopologicalMemory(config.memory),
             )
             if not navigation:
-                board.local_map = None
+                _empty_known_map(board.local_map)
             tree = build_tree(MISSION, services=services)
             tree.setup()
         robot.advance(TICK_PERIOD_S)
@@ -156,7 +147,9 @@ def time_ticks(*, planner: Any, ticks: int, seed: int, navigation: bool) -> dict
 def run_tree_bench(*, ticks: int = 20_000, seed: int = 0) -> dict[str, Any]:
     rows = {
         "tree": time_ticks(planner=PurePursuitStandIn(), ticks=ticks, seed=seed, navigation=False),
-        "tree+navigation": time_ticks(planner=DepthArcPlanner(), ticks=ticks, seed=seed, navigation=True),
+        "tree+navigation": time_ticks(
+            planner=RegulatedPurePursuit(), ticks=ticks, seed=seed, navigation=True
+        ),
     }
     return {
         "seed": seed,

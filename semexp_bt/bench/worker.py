@@ -29,7 +29,7 @@ ONE_THREAD_ENV = {"OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_
 PARENT_CHECK_S = 1.0
 
 
-class EpisodeTimeout(BaseException):  # noqa: N818 - a BaseException so `except Exception` in an episode cannot swallow it
+class EpisodeTimeout(BaseException):
     """Raised inside a worker when the episode exceeds its wall-time limit."""
 
 
@@ -80,7 +80,7 @@ def prepare_pool_worker() -> None:
 
 def run_real_episode(task: EpisodeTask) -> dict[str, Any]:
     """Run one episode with :func:`semexp_bt.app.episode.run_episode` (the default run function)."""
-    if task.relevance == "embedding":
+    if task.relevance in ("embedding", "hybrid"):
         import torch
 
         torch.set_num_threads(1)
@@ -99,6 +99,7 @@ def run_real_episode(task: EpisodeTask) -> dict[str, Any]:
             clearance_m=task.clearance_m,
             max_sim_s=task.max_sim_s,
             keep_trajectory=task.keep_trajectory,
+            instruction=task.instruction,
         )
     )
 

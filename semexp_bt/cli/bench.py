@@ -26,6 +26,16 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from semexp_bt.app.components import RELEVANCE_SCORERS
+from semexp_bt.cli.arguments import (
+    non_negative_int,
+    output_file,
+    output_folder,
+    positive_int,
+    positive_seconds,
+    seed,
+)
+
 if TYPE_CHECKING:
     from semexp_bt.bench.engine import SweepResult
     from semexp_bt.bench.sweep import SweepSpec
@@ -36,19 +46,19 @@ DOCS_DIR = Path(__file__).resolve().parents[2] / "docs"
 
 def _add_sweep_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
-        "--out", type=Path, required=True, help="output folder (episodes.jsonl, report.md, plots/)"
+        "--out", type=output_folder, required=True, help="output folder (episodes.jsonl, report.md, plots/)"
     )
     parser.add_argument("--fidelity", choices=("kinematic", "dynamic"), default="kinematic")
     parser.add_argument(
         "--relevance",
-        choices=("embedding", "lexical"),
+        choices=sorted(RELEVANCE_SCORERS),
         default=None,
-        help="relevance scorer: embedding (offline MiniLM, the method's; the default) or lexical "
-        "(no torch; the default with --smoke)",
+        help="relevance scorer (semexp_bt/app/components.py): embedding (offline MiniLM, the default), "
+        "hybrid (MiniLM or the object lexicon, the larger) or lexical (no torch; the default with --smoke)",
     )
     parser.add_argument(
         "--workers",
-        type=int,
+        type=non_negative_int,
         default=max(1, (os.cpu_count() or 1)),
         help="local worker processes (default: CPU count; 0 runs in this process)",
     )
@@ -57,8 +67,12 @@ def _add_sweep_options(parser: argparse.ArgumentParser) -> None:
         default=None,
         help="run on a Ray cluster ('auto' or ray://host:10001) instead; needs 'pip install ray'",
     )
-    parser.add_argument("--timeout-s", type=float, default=None, help="wall-time limit per episode (s)")
-    parser.add_argument("--max-sim-s", type=float, default=None, help="cap on simulated time per episode (s)")
+    parser.add_argument(
+        "--timeout-s", type=positive_seconds, default=None, help="wall-time limit per episode (s)"
+    )
+    parser.add_argument(
+        "--max-sim-s", type=positive_seconds, default=None, help="cap on simulated time per episode (s)"
+    )
     parser.add_argument(
         "--mission", type=Path, default=None, help="mission tree (default: trees/object_search.yaml)"
     )
@@ -69,24 +83,26 @@ def _add_sweep_options(parser: argparse.ArgumentParser) -> None:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    sub = parser.add_subparsers(dest="kind", metavar="{core,tree,gait,missions,paper,report,compare}")
+    sub = parser.add_subparsers(
+        dest="kind", metavar="{core,tree,gait,missions,phrasing,paper,report,compare}"
+    )
     sub.required = True
     core = sub.add_parser("core", help="latency of arbitration, memory update and decision")
-    core.add_argument("--json", type=Path, default=None, help="write the figures here as JSON")
-    core.add_argument("--seed", type=int, default=0)
+    core.add_argument("--json", type=output_file, default=None, help="write the figures here as JSON")
+    core.add_argument("--seed", type=seed, default=0)
     core.add_argument("--quick", action="store_true", help="fewer repeats, no 100k-node row (smoke test)")
 
     tree = sub.add_parser(
         "tree", help="per-tick wall time of the mission tree alone (no physics, no rendering)"
     )
-    tree.add_argument("--json", type=Path, default=None, help="write the figures here as JSON")
-    tree.add_argument("--ticks", type=int, default=20_000)
-    tree.add_argument("--seed", type=int, default=0)
+    tree.add_argument("--json", type=output_file, default=None, help="write the figures here as JSON")
+    tree.add_argument("--ticks", type=positive_int, default=20_000)
+    tree.add_argument("--seed", type=seed, default=0)
 
     gait = sub.add_parser("gait", help="RL gait vs reference trot: tracking, falls, pushes, CoT, inference")
-    gait.add_argument("--json", type=Path, default=None, help="write the figures here as JSON")
-    gait.add_argument("--seeds", type=int, default=10, help="seeds (10 simulated minutes each)")
-    gait.add_argument("--seed", type=int, default=0)
+    gait.add_argument("--json", type=output_file, default=None, help="write the figures here as JSON")
+    gait.add_argument("--seeds", type=positive_int, default=10, help="seeds (10 simulated minutes each)")
+    gait.add_argument("--seed", type=seed, default=0)
     gait.add_argument("--checkpoint", type=Path, default=None, help="default: robots/gait_checkpoints")
     gait.add_argument("--quick", action="store_true", help="2 seeds x 30 s, small grid (smoke test)")
     gait.add_argument(
@@ -103,27 +119,51 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     missions.add_argument(
         "--trajectories",
-        type=int,
+        type=non_negative_int,
         default=1,
         help="keep trajectory + memory of the first N seeds per (scene, strategy) for plots",
     )
     missions.add_argument("--no-report", action="store_true", help="skip report.md and plots at the end")
     _add_sweep_options(missions)
 
+    phrasing = sub.add_parser(
+        "phrasing",
+        help="the same episodes with the scene's own instruction and other wordings (SR per class)",
+    )
+    phrasing.add_argument("--scenes", default="all", help="comma-separated scene names, or all (default)")
+    phrasing.add_argument("--seeds", default="0-4", help="e.g. 0-4 (default) or 0,3,5")
+    phrasing.add_argument(
+        "--classes",
+        default="all",
+        help="comma-separated phrasing classes (semexp_bt/bench/phrasings.yaml), or all",
+    )
+    _add_sweep_options(phrasing)
+
     paper = sub.add_parser("paper", help="the paper's protocol: Tables I-V into DIR and docs/results.md")
-    paper.add_argument("--trials", type=int, default=20, help="trials per scene for Table III (paper: 20)")
     paper.add_argument(
-        "--trials-evidence", type=int, default=None, help="trials per sim scene, Table I baselines"
+        "--trials", type=positive_int, default=20, help="trials per scene for Table III (paper: 20)"
     )
     paper.add_argument(
-        "--trials-decision", type=int, default=None, help="trials per sim scene, Table II baselines"
+        "--trials-evidence",
+        type=non_negative_int,
+        default=None,
+        help="trials per sim scene, Table I baselines",
     )
     paper.add_argument(
-        "--trials-ablation", type=int, default=None, help="trials per sim scene, Table IV ablations"
+        "--trials-decision",
+        type=non_negative_int,
+        default=None,
+        help="trials per sim scene, Table II baselines",
+    )
+    paper.add_argument(
+        "--trials-ablation",
+        type=non_negative_int,
+        default=None,
+        help="trials per sim scene, Table IV ablations",
     )
     paper.add_argument(
         "--trials-reference",
-        type=int,
+        type=non_negative_int,
         default=None,
         help="trials per scene for the nearest-frontier and oracle references",
     )
@@ -149,7 +189,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     compare.add_argument("before", type=Path, help="the first sweep's output folder")
     compare.add_argument("after", type=Path, help="the second sweep's output folder")
-    compare.add_argument("--json", type=Path, default=None, help="write the comparison here as JSON")
+    compare.add_argument("--json", type=output_file, default=None, help="write the comparison here as JSON")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -192,19 +232,37 @@ def run(args: argparse.Namespace) -> int:
 
     from semexp_bt.bench.sweep import HarnessError
 
+    if (
+        args.kind in ("missions", "paper")
+        and args.mission is not None
+        and not _mission_is_valid(args.mission)
+    ):
+        return 2
     try:
         if args.kind == "missions":
             return _missions(args)
+        if args.kind == "phrasing":
+            return _phrasing(args)
         if args.kind == "paper":
             return _paper(args)
         if args.kind == "report":
             return _report(args)
         if args.kind == "compare":
             return _compare(args)
-    except (HarnessError, FileNotFoundError) as exc:
+    except (HarnessError, FileNotFoundError, ValueError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     return 2
+
+
+def _mission_is_valid(path: Path) -> bool:
+    """Check ``--mission`` before any episode starts; print its problems (one line each) when it has any."""
+    from trees.loader import validate_mission
+
+    errors = validate_mission(path)
+    for error in errors:
+        print(error, file=sys.stderr)
+    return not errors
 
 
 def _spec_options(args: argparse.Namespace) -> dict[str, Any]:
@@ -251,6 +309,32 @@ def _missions(args: argparse.Namespace) -> int:
 
         print(f"report: {write_report(args.out)}")
     return 1 if result.errors or result.timeouts else 0
+
+
+def _phrasing(args: argparse.Namespace) -> int:
+    from semexp_bt.bench.phrasing import load_phrasings, phrasing_specs, summarize, write_summary
+    from semexp_bt.bench.store import load_rows
+    from semexp_bt.bench.sweep import parse_seeds
+    from sims.catalogue import list_scenes
+
+    scenes = list_scenes() if args.scenes == "all" else list(_split(args.scenes))
+    classes = list(load_phrasings().classes) if args.classes == "all" else list(_split(args.classes))
+    specs = phrasing_specs(
+        scenes=scenes, seeds=parse_seeds(args.seeds), classes=classes, **_spec_options(args)
+    )
+    result = _sweep(args, specs)
+    summary = summarize(load_rows(args.out))
+    header = {
+        "machine": _machine(),
+        "command": "semexp-bt " + shlex.join(sys.argv[1:])
+        if sys.argv[0].endswith("semexp-bt")
+        else shlex.join(sys.argv),
+        "episodes": f"{result.ran} run by this invocation, {result.skipped} already done, {result.errors} errors",
+        "relevance": _spec_options(args)["relevance"],
+    }
+    page = write_summary(args.out, summary, header=header)
+    print(page.read_text())
+    return 1 if result.errors or result.timeouts or not all(summary["floors"].values()) else 0
 
 
 def _paper(args: argparse.Namespace) -> int:

@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from semexp_bt.cli.arguments import output_folder, scene_name, seed
 from semexp_bt.core.scene import SceneSpec
 from sims.catalogue import UnknownSceneError, build_scene, list_scenes, scene_summary
 from sims.episodes import Episode, sample_episode
@@ -41,10 +42,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     sub.required = True
     sub.add_parser("list", help="print the scene catalogue")
     render = sub.add_parser("render", help="render a scene's top-down map, episode and head-camera images")
-    render.add_argument("scene", help="scene name (see 'semexp-bt scene list')")
-    render.add_argument("--seed", type=int, default=0, help="layout seed (default 0)")
-    render.add_argument("--episode-seed", type=int, default=None, help="episode seed (default: --seed)")
-    render.add_argument("--out", type=Path, required=True, help="output folder (created if missing)")
+    render.add_argument("scene", type=scene_name, help="scene name (see 'semexp-bt scene list')")
+    render.add_argument("--seed", type=seed, default=0, help="layout seed (default 0)")
+    render.add_argument("--episode-seed", type=seed, default=None, help="episode seed (default: --seed)")
+    render.add_argument("--out", type=output_folder, required=True, help="output folder (created if missing)")
     render.add_argument("--no-camera", action="store_true", help="skip the MuJoCo head-camera images")
 
 

@@ -1,5 +1,8 @@
 """``semexp-bt tree``: check mission files, show a tree, generate the node reference.
 
+A problem in a mission file is one line, ``file:line:column: message``, and exit status 2 (``check``
+prints every problem of every file on stdout, its report; ``show`` prints them on stderr).
+
 Examples:
     semexp-bt tree check trees/*.yaml trees/subtrees/*.yaml
     semexp-bt tree show trees/object_search.yaml
@@ -14,9 +17,13 @@ from pathlib import Path
 from typing import Any
 
 from semexp_bt.app.executive import RUNNER_KEYS
+from semexp_bt.cli.arguments import output_file
 from trees.docs_gen import node_reference_markdown
 from trees.loader import MissionSettings, NodeDecl, analyse_mission, validate_mission
 from trees.registry import NodeRegistry, default_registry
+
+#: Exit status when a mission file has problems (as for any bad input on the command line).
+EXIT_INVALID = 2
 
 #: py_trees' ascii symbols, so `tree show` reads like py_trees.display.ascii_tree.
 _SYMBOLS = {
@@ -39,7 +46,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     show = sub.add_parser("show", help="print a mission tree with node types and parameters")
     show.add_argument("file", type=Path, metavar="FILE")
     docs = sub.add_parser("docs", help="write the node reference (markdown) generated from the registry")
-    docs.add_argument("--out", type=Path, default=None, help="output file (default: stdout)")
+    docs.add_argument("--out", type=output_file, default=None, help="output file (default: stdout)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -61,15 +68,15 @@ def _check(files: list[Path], registry: NodeRegistry) -> int:
                 print(error)
         else:
             print(f"{path}: ok")
-    return 1 if failed else 0
+    return EXIT_INVALID if failed else 0
 
 
 def _show(path: Path, registry: NodeRegistry) -> int:
     settings, root, errors = analyse_mission(path, registry)
     if errors or root is None or settings is None:
         for error in errors:
-            print(error)
-        return 1
+            print(error, file=sys.stderr)
+        return EXIT_INVALID
     print(render_settings(settings))
     print(render_tree(root, registry))
     return 0

@@ -17,49 +17,47 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any, Literal, get_args, get_origin, get_type_hints
 
+from semexp_bt.core.bounds import Interval, field_interval, field_range
+
 
 class ConfigError(ValueError):
     """A configuration value is unknown, of the wrong type, or out of range."""
-
-
-def _range(lo: float, hi: float, *, lo_open: bool = False, hi_open: bool = False) -> dict[str, Any]:
-    return {"range": (lo, hi, lo_open, hi_open)}
 
 
 @dataclass(frozen=True)
 class ArbitrationConfig:
     """Evidence arbitration, Eq. 1-4."""
 
-    tau: float = field(default=0.25, metadata=_range(0.0, 1.0, hi_open=True))
+    tau: float = field(default=0.25, metadata=field_range(0.0, 1.0, high_open=True))
     """Calibration threshold of Eq. 1: confidences at or below tau calibrate to 0."""
-    beta_o: float = field(default=1.0, metadata=_range(0.0, 10.0))
+    beta_o: float = field(default=1.0, metadata=field_range(0.0, 10.0))
     """Exponent of the calibrated object confidence in Eq. 2 and Eq. 4."""
-    beta_s: float = field(default=1.0, metadata=_range(0.0, 10.0))
+    beta_s: float = field(default=1.0, metadata=field_range(0.0, 10.0))
     """Exponent of the calibrated scene confidence in Eq. 2 and Eq. 4."""
-    lambda_iou: float = field(default=0.5, metadata=_range(0.0, 10.0))
+    lambda_iou: float = field(default=0.5, metadata=field_range(0.0, 10.0))
     """Exponent lambda of the spatial-consistency term (IoU + epsilon) in Eq. 2."""
-    mu: float = field(default=1.0, metadata=_range(0.0, 10.0))
+    mu: float = field(default=1.0, metadata=field_range(0.0, 10.0))
     """Exponent mu of the depth-feasibility term (kappa + epsilon) in Eq. 2."""
-    epsilon: float = field(default=1e-3, metadata=_range(0.0, 0.1, lo_open=True))
+    epsilon: float = field(default=1e-3, metadata=field_range(0.0, 0.1, low_open=True))
     """Numerical-stability constant of Eq. 2."""
-    scene_region_half_size_px: float = field(default=40.0, metadata=_range(1.0, 1000.0))
+    scene_region_half_size_px: float = field(default=40.0, metadata=field_range(1.0, 1000.0))
     """Half side of the square scene region built around a VLM point that comes without a box."""
-    direction_prior: float = field(default=0.25, metadata=_range(0.0, 1.0))
+    direction_prior: float = field(default=0.25, metadata=field_range(0.0, 1.0))
     """P(t) of an unexplored-direction candidate in Eq. 2 (object candidates have P = 1): a direction
     is where to look, not the target, and should win only when no object evidence is worth more."""
     cross_source_consistency: bool = True
     """When both sources answered for a view, an object candidate one of them did not corroborate is
     scored as spatially inconsistent (IoU = unsupported_iou) instead of dropping the term; see
     docs/arbitration.md. False gives the literal per-candidate omission."""
-    unsupported_iou: float = field(default=0.05, metadata=_range(0.0, 1.0))
+    unsupported_iou: float = field(default=0.05, metadata=field_range(0.0, 1.0))
     """The IoU an uncorroborated object candidate gets in the consistency term."""
-    depth_min_m: float = field(default=0.3, metadata=_range(0.0, 100.0))
+    depth_min_m: float = field(default=0.3, metadata=field_range(0.0, 100.0))
     """Nearest valid depth for kappa (D435i minimum range)."""
-    depth_max_m: float = field(default=10.0, metadata=_range(0.1, 100.0))
+    depth_max_m: float = field(default=10.0, metadata=field_range(0.1, 100.0))
     """Farthest valid depth for kappa (D435i useful range)."""
-    depth_patch_px: int = field(default=5, metadata=_range(1, 101))
+    depth_patch_px: int = field(default=5, metadata=field_range(1, 101))
     """Side of the pixel patch around the target pixel whose median depth is the target depth."""
-    occluder_margin_m: float = field(default=0.3, metadata=_range(0.0, 10.0))
+    occluder_margin_m: float = field(default=0.3, metadata=field_range(0.0, 10.0))
     """kappa penalises a target when depth along the ray is closer than the target by this margin."""
 
 
@@ -67,29 +65,29 @@ class ArbitrationConfig:
 class MemoryConfig:
     """Controlled-growth topological memory, Eq. 5-7 and maintenance."""
 
-    delta_d: float = field(default=0.75, metadata=_range(0.01, 100.0))
+    delta_d: float = field(default=0.75, metadata=field_range(0.01, 100.0))
     """Insertion distance gate (m): a candidate closer than this to its nearest node merges into it."""
-    cf_gate: float = field(default=0.3, metadata=_range(0.0, 1.0))
+    cf_gate: float = field(default=0.3, metadata=field_range(0.0, 1.0))
     """Insertion confidence gate: C_f must exceed it for a new node."""
-    rho: float = field(default=0.3, metadata=_range(0.0, 1.0, lo_open=True))
+    rho: float = field(default=0.3, metadata=field_range(0.0, 1.0, low_open=True))
     """EMA smoothing factor of Eq. 6, in (0, 1]."""
-    delta_r: float = field(default=2.5, metadata=_range(0.0, 100.0, lo_open=True))
+    delta_r: float = field(default=2.5, metadata=field_range(0.0, 100.0, low_open=True))
     """Edge radius (m): a new node connects to every node within delta_r ..."""
-    k_nearest: int = field(default=3, metadata=_range(1, 64))
+    k_nearest: int = field(default=3, metadata=field_range(1, 64))
     """... or, if none lies within delta_r, to its k nearest nodes."""
-    xi: float = field(default=0.3, metadata=_range(0.0, 1.0, lo_open=True))
+    xi: float = field(default=0.3, metadata=field_range(0.0, 1.0, low_open=True))
     """Exploration-potential decay rate of Eq. 7, in (0, 1]."""
-    observe_radius_m: float = field(default=1.5, metadata=_range(0.0, 100.0))
+    observe_radius_m: float = field(default=1.5, metadata=field_range(0.0, 100.0))
     """Nodes within this distance of the robot count as 'surroundings observed' and decay."""
-    prune_potential: float = field(default=0.05, metadata=_range(0.0, 1.0))
+    prune_potential: float = field(default=0.05, metadata=field_range(0.0, 1.0))
     """Pruning removes nodes whose potential is below this ..."""
-    prune_confidence: float = field(default=0.2, metadata=_range(0.0, 1.0))
+    prune_confidence: float = field(default=0.2, metadata=field_range(0.0, 1.0))
     """... and whose fused confidence is below this (both must hold)."""
-    merge_radius_m: float = field(default=1.0, metadata=_range(0.0, 100.0))
+    merge_radius_m: float = field(default=1.0, metadata=field_range(0.0, 100.0))
     """Maintenance merges adjacent nodes with the same label closer than this."""
-    maintenance_every: int = field(default=10, metadata=_range(1, 1_000_000))
+    maintenance_every: int = field(default=10, metadata=field_range(1, 1_000_000))
     """Run pruning/merging every this many updates."""
-    max_nodes: int = field(default=5000, metadata=_range(2, 10_000_000))
+    max_nodes: int = field(default=5000, metadata=field_range(2, 10_000_000))
     """Hard cap: beyond it the lowest-value non-master node is evicted (a safety net; the gates bound
     the count for a bounded area long before it)."""
 
@@ -98,22 +96,22 @@ class MemoryConfig:
 class DecisionConfig:
     """Utility-driven subgoal decision, Eq. 8-10."""
 
-    tau_p: float = field(default=0.2, metadata=_range(0.0, 1.0))
+    tau_p: float = field(default=0.2, metadata=field_range(0.0, 1.0))
     """Candidate filter of Eq. 8: nodes with potential below tau_p are not candidates."""
-    alpha: float = field(default=1.0, metadata=_range(0.0, 10.0))
+    alpha: float = field(default=1.0, metadata=field_range(0.0, 10.0))
     """Exponent of semantic relevance S_LLM in Eq. 9."""
-    beta: float = field(default=0.5, metadata=_range(0.0, 10.0))
+    beta: float = field(default=0.5, metadata=field_range(0.0, 10.0))
     """Exponent of the node's fused confidence in Eq. 9."""
-    eta: float = field(default=1.0, metadata=_range(0.0, 10.0))
+    eta: float = field(default=1.0, metadata=field_range(0.0, 10.0))
     """Exponent of exploration potential in Eq. 9."""
-    gamma: float = field(default=0.15, metadata=_range(0.0, 10.0))
+    gamma: float = field(default=0.15, metadata=field_range(0.0, 10.0))
     """Travel-cost rate (1/m) in Eq. 9."""
     travel_cost: Literal["graph", "euclidean"] = "graph"
     """Travel cost d(P_robot, P_v): shortest path on the memory graph or straight-line distance."""
-    relevance_floor: float = field(default=0.1, metadata=_range(0.0, 1.0))
+    relevance_floor: float = field(default=0.1, metadata=field_range(0.0, 1.0))
     """S is floored at this value in Eq. 9, so nodes whose label is unrelated to the instruction (an
     unexplored direction) keep exploration value; 0 gives the paper's literal product."""
-    tie_tolerance: float = field(default=1e-9, metadata=_range(0.0, 1.0))
+    tie_tolerance: float = field(default=1e-9, metadata=field_range(0.0, 1.0))
     """Utilities within this relative tolerance are a tie, broken by the lower node id (reported)."""
 
 
@@ -126,36 +124,50 @@ class SemExpConfig:
     decision: DecisionConfig = field(default_factory=DecisionConfig)
 
 
-def _check_value(where: str, key: str, value: Any, ftype: Any, meta: dict[str, Any]) -> Any:
-    origin = get_origin(ftype)
-    if origin is Literal:
+def check_value(value: Any, ftype: Any, interval: Interval | None) -> tuple[Any, str | None]:
+    """Check one value against a field's type and bounds.
+
+    Args:
+        value: the value to check.
+        ftype: the field's type: a ``Literal``, ``bool``, ``int`` or ``float``; other types are not checked.
+        interval: the field's bounds (:func:`semexp_bt.core.bounds.field_interval`), or None.
+
+    Returns:
+        ``(value, None)`` when valid (an int given for a float widened to float), else ``(value, problem)``
+        with ``problem`` saying what was expected and what was given, e.g. ``must lie in [0.0, 1.0], got 2``.
+    """
+    if get_origin(ftype) is Literal:
         allowed = get_args(ftype)
-        if value not in allowed:
-            raise ConfigError(f"{where}: key '{key}' must be one of {list(allowed)}, got {value!r}")
-        return value
+        return value, (None if value in allowed else f"must be one of {list(allowed)}, got {value!r}")
     if ftype is bool:
-        if not isinstance(value, bool):
-            raise ConfigError(f"{where}: key '{key}' must be a boolean, got {value!r}")
-        return value
+        return value, (None if isinstance(value, bool) else f"must be a boolean, got {value!r}")
     if ftype is int:
         if isinstance(value, bool) or not isinstance(value, int):
-            raise ConfigError(f"{where}: key '{key}' must be an integer, got {value!r}")
+            return value, f"must be an integer, got {value!r}"
     elif ftype is float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise ConfigError(f"{where}: key '{key}' must be a number, got {value!r}")
+            return value, f"must be a number, got {value!r}"
         value = float(value)
         if not math.isfinite(value):
-            raise ConfigError(f"{where}: key '{key}' must be finite, got {value!r}")
-    rng = meta.get("range")
-    if rng is not None:
-        lo, hi, lo_open, hi_open = rng
-        below = value <= lo if lo_open else value < lo
-        above = value >= hi if hi_open else value > hi
-        if below or above:
-            left = "(" if lo_open else "["
-            right = ")" if hi_open else "]"
-            raise ConfigError(f"{where}: key '{key}' must lie in {left}{lo}, {hi}{right}, got {value!r}")
-    return value
+            return value, f"must be finite, got {value!r}"
+    if interval is not None and not interval.contains(value):
+        return value, f"must lie in {interval.notation()}, got {value!r}"
+    return value, None
+
+
+def field_problem(instance: Any) -> str | None:
+    """The first field of a dataclass instance whose value breaks its type or bounds, as
+    ``"name problem"`` (see :func:`check_value`); None when every field is valid.
+
+    For a dataclass that validates itself in ``__post_init__`` (as ``PlannerConfig`` does), so that one
+    built in code obeys the same rules as one read from YAML by :func:`config_from_dict`.
+    """
+    hints = get_type_hints(type(instance))
+    for spec in dataclasses.fields(instance):
+        _, problem = check_value(getattr(instance, spec.name), hints[spec.name], field_interval(spec))
+        if problem is not None:
+            return f"{spec.name} {problem}"
+    return None
 
 
 def config_from_dict(
@@ -187,7 +199,9 @@ def config_from_dict(
         if dataclasses.is_dataclass(ftype):
             kwargs[key] = config_from_dict(value, cls=ftype, where=where, prefix=path)  # type: ignore[arg-type]
         else:
-            kwargs[key] = _check_value(where, path, value, ftype, dict(fields[key].metadata))
+            kwargs[key], problem = check_value(value, ftype, field_interval(fields[key]))
+            if problem is not None:
+                raise ConfigError(f"{where}: key '{path}' {problem}")
     return cls(**kwargs)
 
 
@@ -207,8 +221,3 @@ def deep_merge(base: Mapping[str, Any], extra: Mapping[str, Any] | None) -> dict
         else:
             out[key] = value
     return out
-
-
-def config_to_dict(config: Any) -> dict[str, Any]:
-    """The config as nested plain dicts (for episode records and YAML dumps)."""
-    return dataclasses.asdict(config)

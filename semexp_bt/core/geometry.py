@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, overload
 
 import numpy as np
 import numpy.typing as npt
@@ -138,11 +138,6 @@ def in_image(pixel_px: Sequence[float], width_px: int, height_px: int) -> bool:
     """Whether ``(u, v)`` lies on the image ``[-0.5, W - 0.5) x [-0.5, H - 0.5)``."""
     u, v = float(pixel_px[0]), float(pixel_px[1])
     return -0.5 <= u < width_px - 0.5 and -0.5 <= v < height_px - 0.5
-
-
-def pixel_index(pixel_px: Sequence[float]) -> tuple[int, int]:
-    """The ``(column, row)`` index of the pixel that contains ``(u, v)`` (round half up)."""
-    return (math.floor(float(pixel_px[0]) + 0.5), math.floor(float(pixel_px[1]) + 0.5))
 
 
 # ----------------------------------------------------------------------------------------------------------
@@ -548,11 +543,33 @@ def object_surface_depth(
 # ----------------------------------------------------------------------------------------------------------
 
 
-def wrap_angle(angle_rad: float) -> float:
-    """Wrap an angle to ``[-pi, pi)``."""
+@overload
+def wrap_angle(angle_rad: float) -> float: ...
+
+
+@overload
+def wrap_angle(angle_rad: npt.NDArray[Any]) -> FloatArray: ...
+
+
+def wrap_angle(angle_rad: float | npt.NDArray[Any]) -> float | FloatArray:
+    """Wrap an angle, or every angle of an array, to ``[-pi, pi)``: ``(a + pi) mod 2 pi - pi``.
+
+    The one wrap of the code base (headings, bearings, yaw integration, arc scores): a different formula
+    (``math.remainder``, say) differs in the last bits, and those bits change whole episodes.
+
+    Example:
+        >>> wrap_angle(1.5 * math.pi), wrap_angle(math.pi)
+        (-1.5707963267948966, -3.141592653589793)
+
+    Raises:
+        InvalidInputError: a NaN or infinite angle.
+    """
     require_finite("angle_rad", angle_rad)
+    if isinstance(angle_rad, np.ndarray):
+        wrapped_array = (angle_rad.astype(float, copy=False) + math.pi) % _TWO_PI - math.pi
+        return np.where(wrapped_array >= math.pi, -math.pi, wrapped_array)
     wrapped = (float(angle_rad) + math.pi) % _TWO_PI - math.pi
-    # The modulo of a value a hair below +pi can round up to exactly pi; keep the interval half-open.
+    # The modulo of a value a hair below -pi can round up to exactly 2 pi; keep the interval half-open.
     return -math.pi if wrapped >= math.pi else wrapped
 
 
@@ -578,3 +595,50 @@ def bearing_in_base(point_xy: Sequence[float], pose: Pose2D) -> float:
     """Bearing of a ``map`` point seen from ``pose``, in ``[-pi, pi)`` (0 ahead, positive to the left)."""
     x, y = world_to_base(point_xy, pose)
     return wrap_angle(math.atan2(y, x))
+
+
+# ----------------------------------------------------------------------------------------------------------
+# Grid lattice
+# ----------------------------------------------------------------------------------------------------------
+
+#: The 16-connected lattice's moves ``(d_row, d_col, cells crossed)``, one of each opposite pair (a graph
+#: built from them is undirected): the four straight and diagonal neighbours and the eight knight moves,
+#: each with the cells a straight segment between the two centres passes through.
+LATTICE_MOVES: tuple[tuple[int, int, tuple[tuple[int, int], ...]], ...] = (
+    (0, 1, ()),
+    (1, 0, ()),
+    (1, 1, ((0, 1), (1, 0))),
+    (1, -1, ((0, -1), (1, 0))),
+    (1, 2, ((0, 1), (1, 1))),
+    (2, 1, ((1, 0), (1, 1))),
+    (1, -2, ((0, -1), (1, -1))),
+    (2, -1, ((1, 0), (1, -1))),
+)
+
+
+def lattice_steps(
+    passable: npt.NDArray[np.bool_],
+) -> list[tuple[int, int, npt.NDArray[np.intp], npt.NDArray[np.intp]]]:
+    """The edges of the 16-connected lattice over a grid's passable cells, one list entry per move of
+    :data:`LATTICE_MOVES`: ``(d_row, d_col, rows, cols)``, the cells ``(rows, cols)`` from which that move
+    ends on a passable cell through passable cells only (the grid's edge counts as impassable).
+
+    Example:
+        >>> steps = lattice_steps(np.ones((2, 2), dtype=bool))
+        >>> [(dr, dc, len(r)) for dr, dc, r, _ in steps if len(r)]
+        [(0, 1, 2), (1, 0, 2), (1, 1, 1), (1, -1, 1)]
+    """
+    rows, cols = passable.shape
+    padded = np.pad(passable, 2, constant_values=False)  # so every offset slice stays in range
+
+    def shifted(dr: int, dc: int) -> npt.NDArray[np.bool_]:
+        return padded[2 + dr : 2 + dr + rows, 2 + dc : 2 + dc + cols]
+
+    steps = []
+    for dr, dc, crossed in LATTICE_MOVES:
+        ok = passable & shifted(dr, dc)
+        for cr, cc in crossed:
+            ok &= shifted(cr, cc)
+        r, c = np.nonzero(ok)
+        steps.append((dr, dc, r, c))
+    return steps

@@ -77,6 +77,9 @@ class EpisodeRecord:
             inflated occupancy grid.
         collision: any collision or clearance breach during the episode.
         decisions: the episode's decision steps (stored as a tuple).
+        reached_named: whether the reached object is one the instruction names (the simulator's ground
+            truth of naming, ``sims.naming``: a paraphrase of the goal names it, a distractor's name does
+            not); None for records written before it was kept, which SA then judges by category.
     """
 
     scene: str
@@ -91,6 +94,7 @@ class EpisodeRecord:
     geodesic_length_m: float
     collision: bool
     decisions: Sequence[DecisionStep] = field(default_factory=tuple)
+    reached_named: bool | None = None
 
     def __post_init__(self) -> None:
         where = f"episode record ({self.scene!r}, seed {self.seed}, {self.strategy!r})"
@@ -194,7 +198,11 @@ def _category(text: str) -> str:
 
 
 def semantic_match(record: EpisodeRecord) -> bool:
-    """SA indicator: the reached category equals the instructed one (case and spacing ignored)."""
+    """SA indicator: the robot reached an object the instruction names, whatever its wording
+    (``reached_named``); for older records, the reached category equals the instructed one (case and
+    spacing ignored)."""
+    if record.reached_named is not None:
+        return bool(record.reached_named)
     return record.reached_category is not None and _category(record.reached_category) == _category(
         record.goal_category
     )

@@ -4,20 +4,21 @@ The paper asks a language model for a normalised relevance score S in [0, 1] bet
 and each candidate node's label. This module defines the interface every scorer implements
 (:class:`RelevanceScorer`) and the scorers that need no neural network:
 
-- :class:`LexicalRelevance`: a deterministic token-overlap score with plural stripping, a small synonym
-  table for the product's object vocabulary and a colour-conflict penalty;
+- :class:`LexicalRelevance`: a deterministic token-overlap score over the object lexicon of
+  :mod:`semexp_bt.core.language` (plurals, synonyms) with an attribute-conflict penalty;
+- :class:`HybridRelevance`: the larger of a learned scorer's value and the lexical one;
 - :class:`CachedRelevance`: a per-(instruction, label) cache in front of any scorer (the decision asks
-  for the same pairs every tick);
-- :class:`LLMRelevance`: the paper's LLM adjudicator with a fixed prompt and temperature 0, written
-  against a :class:`TextCompleter` so that an HTTP client (OpenAI-compatible API) drops in later.
+  for the same pairs every tick).
 
-The sentence-embedding scorer (the product default) lives in ``semexp_bt.perception.embedding_relevance`` because
-it needs torch; this is a core module (standard library and numpy only).
+The sentence-embedding scorer lives in ``semexp_bt.perception.embedding_relevance`` because it needs
+torch, the paper's LLM scorer in ``semexp_bt.perception.llm_relevance`` because it talks to a model
+server, and the instruction parser in :mod:`semexp_bt.core.instruction`. This is a core module (standard
+library and numpy only). :data:`NAMES_OBJECT_RELEVANCE` is the one threshold at which a label names the
+instructed object.
 """
 
 from __future__ import annotations
 
-import re
 import threading
 from collections.abc import Sequence
 from typing import Protocol, runtime_checkable
@@ -25,13 +26,11 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 import numpy.typing as npt
 
+from semexp_bt.core.instruction import instruction_target
+from semexp_bt.core.language import attribute_words, canonical_tokens, words_of
 from semexp_bt.core.types import InvalidInputError
 
 FloatArray = npt.NDArray[np.float64]
-
-
-class RelevanceReplyError(InvalidInputError):
-    """A language model's relevance reply could not be read as a number in [0, 1]."""
 
 
 @runtime_checkable
@@ -52,301 +51,33 @@ class RelevanceScorer(Protocol):
         ...
 
 
-# --------------------------------------------------------------------------------------------------
-# Instruction parsing
-# --------------------------------------------------------------------------------------------------
-
-#: Leading phrases that carry the request, not the object. Matched as whole words, longest first,
-#: repeatedly (so "please can you go to" is stripped in three steps).
-INSTRUCTION_PREFIXES: tuple[str, ...] = (
-    "i want you to",
-    "i need you to",
-    "i would like you to",
-    "explore to find",
-    "try to find",
-    "can you",
-    "could you",
-    "would you",
-    "will you",
-    "please",
-    "hey robot",
-    "ok robot",
-    "hey",
-    "now",
-    "then",
-    "and",
-    "go and",
-    "find",
-    "locate",
-    "search for",
-    "look for",
-    "seek",
-    "go to",
-    "go towards",
-    "go toward",
-    "navigate to",
-    "move to",
-    "walk to",
-    "head to",
-    "get to",
-    "bring me to",
-    "take me to",
-    "lead me to",
-    "where is",
-    "where s",
-    "approach",
-    "reach",
-)
-
-#: Determiners dropped in front of the object phrase.
-DETERMINERS: frozenset[str] = frozenset({"the", "a", "an", "some", "any", "my", "that", "this", "our"})
-
-#: Trailing courtesy phrases.
-INSTRUCTION_SUFFIXES: tuple[str, ...] = ("thank you", "for me", "please", "thanks", "now")
-
-#: Words that start a spatial or relative clause; the object phrase ends before the first of them.
-CLAUSE_MARKERS: tuple[str, ...] = (
-    "in front of",
-    "next to",
-    "close to",
-    "near",
-    "beside",
-    "behind",
-    "in",
-    "on",
-    "at",
-    "under",
-    "by",
-    "that",
-    "which",
-    "located",
-)
-
-_NON_WORD = re.compile(r"[^a-z0-9]+")
-
-
-def _normalise_text(text: str) -> list[str]:
-    """Lower-case word tokens; anything that is not a letter or a digit separates words."""
-    return [tok for tok in _NON_WORD.split(text.lower()) if tok]
-
-
-def _phrase_tokens(phrases: Sequence[str]) -> list[tuple[str, ...]]:
-    return sorted((tuple(p.split()) for p in phrases), key=len, reverse=True)
-
-
-_PREFIX_TOKENS = _phrase_tokens(INSTRUCTION_PREFIXES)
-_SUFFIX_TOKENS = _phrase_tokens(INSTRUCTION_SUFFIXES)
-_CLAUSE_TOKENS = _phrase_tokens(CLAUSE_MARKERS)
-
-
-def instruction_target(instruction: str) -> str:
-    """Extract the object phrase from an instruction.
-
-    The rule, applied to lower-cased word tokens (punctuation removed):
-
-    1. strip leading request phrases (:data:`INSTRUCTION_PREFIXES`: "please", "can you", "find",
-       "go to", "look for", ...) and determiners (:data:`DETERMINERS`), repeatedly;
-    2. strip trailing courtesy phrases (:data:`INSTRUCTION_SUFFIXES`: "please", "for me", ...);
-    3. cut at the first spatial or relative clause marker (:data:`CLAUSE_MARKERS`: "near", "next to",
-       "in", "on", "that", ...), but never at the first word, so the object phrase is what precedes it.
-
-    If nothing is left (the instruction was only request words) the normalised instruction is
-    returned, so a scorer always has something to compare.
-
-    Examples:
-        >>> instruction_target("Find the fire extinguisher.")
-        'fire extinguisher'
-        >>> instruction_target("go to the black chair please")
-        'black chair'
-        >>> instruction_target("look for a carton box next to the door")
-        'carton box'
-
-    Raises:
-        InvalidInputError: if the instruction has no words.
-    """
-    tokens = _normalise_text(instruction)
-    if not tokens:
-        raise InvalidInputError(f"instruction must contain at least one word, got {instruction!r}")
-    words = list(tokens)
-    changed = True
-    while changed and words:
-        changed = False
-        if words[0] in DETERMINERS:
-            words.pop(0)
-            changed = True
-            continue
-        for phrase in _PREFIX_TOKENS:
-            if tuple(words[: len(phrase)]) == phrase:
-                del words[: len(phrase)]
-                changed = True
-                break
-    changed = True
-    while changed and words:
-        changed = False
-        for phrase in _SUFFIX_TOKENS:
-            if len(words) > len(phrase) and tuple(words[-len(phrase) :]) == phrase:
-                del words[-len(phrase) :]
-                changed = True
-                break
-    for i in range(1, len(words)):
-        if any(tuple(words[i : i + len(m)]) == m for m in _CLAUSE_TOKENS):
-            words = words[:i]
-            break
-    return " ".join(words) if words else " ".join(tokens)
-
-
-# --------------------------------------------------------------------------------------------------
-# Lexical relevance
-# --------------------------------------------------------------------------------------------------
-
-#: Plurals that the suffix rules below would get wrong.
-IRREGULAR_SINGULARS: dict[str, str] = {
-    "shelves": "shelf",
-    "knives": "knife",
-    "leaves": "leaf",
-    "buses": "bus",
-    "people": "person",
-    "children": "child",
-    "feet": "foot",
-}
-
-#: Synonym table for the product's object vocabulary: every phrase maps to one concept token. Phrases
-#: are matched after plural stripping, longest first. A concept token joins a multi-word phrase with
-#: "_" so it counts as one word (and as the head of the phrase).
-SYNONYMS: dict[str, str] = {
-    "fire extinguisher": "extinguisher",
-    "extinguisher": "extinguisher",
-    "trash can": "bin",
-    "trash bin": "bin",
-    "garbage can": "bin",
-    "garbage bin": "bin",
-    "waste bin": "bin",
-    "rubbish bin": "bin",
-    "litter bin": "bin",
-    "recycling bin": "bin",
-    "dustbin": "bin",
-    "wastebasket": "bin",
-    "bin": "bin",
-    "traffic sign": "sign",
-    "road sign": "sign",
-    "street sign": "sign",
-    "signpost": "sign",
-    "sign": "sign",
-    "trolley": "cart",
-    "handcart": "cart",
-    "cart": "cart",
-    "robot dog": "quadruped_robot",
-    "robotic dog": "quadruped_robot",
-    "quadruped robot": "quadruped_robot",
-    "legged robot": "quadruped_robot",
-    "quadruped": "quadruped_robot",
-    "bus stop": "bus_stop",
-    "bus station": "bus_stop",
-    "bus shelter": "bus_stop",
-    "cardboard box": "box",
-    "carton box": "box",
-    "carton": "box",
-    "box": "box",
-    "couch": "sofa",
-    "sofa": "sofa",
-    "pail": "bucket",
-    "rack": "shelf",
-    "shelving": "shelf",
-    "gray": "grey",
-}
-
-#: Colour words: two phrases that both name a colour, and no colour in common, conflict.
-COLOURS: frozenset[str] = frozenset(
-    {
-        "black",
-        "white",
-        "grey",
-        "red",
-        "green",
-        "blue",
-        "yellow",
-        "orange",
-        "purple",
-        "pink",
-        "brown",
-        "silver",
-        "gold",
-        "beige",
-        "cyan",
-        "magenta",
-    }
-)
-
-#: Words that carry no object identity.
-STOPWORDS: frozenset[str] = frozenset(
-    {"the", "a", "an", "some", "of", "with", "for", "and", "on", "in", "to"}
-)
-
-#: Prepositions that end the head noun phrase ("shelf with buckets": the head is "shelf").
-HEAD_BREAKERS: frozenset[str] = frozenset({"of", "with", "for", "on", "in"})
+#: Relevance at which a label names the instructed object itself (its name, a synonym, the same thing
+#: with compatible attributes), not merely something like it ("shelf" for "bucket shelf"). The one
+#: threshold every such judgment uses: confirmation, the arbitration's alignment, the label majority,
+#: the memory's target nodes.
+NAMES_OBJECT_RELEVANCE = 0.9
+#: Relevance at which a label is related to the instruction (a close class, a partial name).
+RELATED_RELEVANCE = 0.6
 
 #: Weight of a phrase's head noun (its last word before any preposition) in the overlap score; other
 #: words weigh 1. A shared head says "same kind of object", a shared modifier only "similar".
 HEAD_WEIGHT = 2.0
-
-#: Factor applied when both phrases name colours and share none ("grey chair" vs "black chair").
-COLOUR_CONFLICT_FACTOR = 0.75
-
-_SYNONYM_TOKENS = sorted(((tuple(k.split()), v) for k, v in SYNONYMS.items()), key=lambda kv: -len(kv[0]))
-
-
-def singularise(word: str) -> str:
-    """Strip an English plural with a few suffix rules (documented in ``docs/decision.md``).
-
-    Words of three letters or fewer and words ending in "ss", "us" or "is" are kept as they are.
-    """
-    if word in IRREGULAR_SINGULARS:
-        return IRREGULAR_SINGULARS[word]
-    if len(word) <= 3 or word.endswith(("ss", "us", "is")):
-        return word
-    if word.endswith("ies") and len(word) > 4:
-        return word[:-3] + "y"
-    if word.endswith(("xes", "ches", "shes", "zes")):
-        return word[:-2]
-    if word.endswith("s"):
-        return word[:-1]
-    return word
-
-
-def canonical_tokens(phrase: str) -> tuple[tuple[str, ...], str | None]:
-    """Normalise a phrase into concept tokens and its head.
-
-    Steps: lower-case word tokens, plural stripping, synonym phrases replaced by their concept token
-    (longest match first), stopwords dropped. The head is the last concept token before the first
-    preposition in :data:`HEAD_BREAKERS`.
-
-    Returns:
-        ``(tokens, head)``; ``head`` is None when the phrase has no content word.
-    """
-    words = [singularise(w) for w in _normalise_text(phrase)]
-    concepts: list[str] = []
-    i = 0
-    while i < len(words):
-        for key, concept in _SYNONYM_TOKENS:
-            if tuple(words[i : i + len(key)]) == key:
-                concepts.append(concept)
-                i += len(key)
-                break
-        else:
-            concepts.append(words[i])
-            i += 1
-    head: str | None = None
-    for word in concepts:
-        if word in HEAD_BREAKERS and head is not None:
-            break
-        if word not in STOPWORDS:
-            head = word
-    tokens = tuple(dict.fromkeys(w for w in concepts if w not in STOPWORDS))
-    return tokens, head
+#: Factor applied when both phrases name colours (or sizes) and share none ("grey chair" vs "black chair").
+ATTRIBUTE_CONFLICT_FACTOR = 0.75
 
 
 def _weights(tokens: tuple[str, ...], head: str | None) -> dict[str, float]:
     return {t: (HEAD_WEIGHT if t == head else 1.0) for t in tokens}
+
+
+def attributes_conflict(a: str, b: str) -> bool:
+    """Whether two phrases both name a colour (or both a size) and share none ("grey chair", "black chair")."""
+    colours_a, sizes_a = attribute_words(words_of(a))
+    colours_b, sizes_b = attribute_words(words_of(b))
+    return bool(
+        (colours_a and colours_b and not set(colours_a) & set(colours_b))
+        or (sizes_a and sizes_b and not set(sizes_a) & set(sizes_b))
+    )
 
 
 class LexicalRelevance:
@@ -358,32 +89,63 @@ class LexicalRelevance:
 
         S = sum_{t in A & B} (w_A(t) + w_B(t)) / (sum_A w + sum_B w)
 
-    times :data:`COLOUR_CONFLICT_FACTOR` when both phrases name a colour and none in common. It is 1
-    exactly when both phrases reduce to the same tokens and head, 0 when they share no token.
+    times :data:`ATTRIBUTE_CONFLICT_FACTOR` when both phrases name a colour (or a size) and none in
+    common. It is 1 exactly when both phrases reduce to the same tokens and head, 0 when they share no
+    token. Names are read with the lexicon of :mod:`semexp_bt.core.language` ("road sign" and "traffic
+    sign" are one concept).
     """
 
     def score(self, *, instruction: str, label: str) -> float:
-        target_tokens, target_head = canonical_tokens(instruction_target(instruction))
-        return self._score_tokens(target_tokens, target_head, label)
+        return float(self.scores(instruction=instruction, labels=(label,))[0])
 
     def scores(self, *, instruction: str, labels: Sequence[str]) -> FloatArray:
-        target_tokens, target_head = canonical_tokens(instruction_target(instruction))
-        return np.array([self._score_tokens(target_tokens, target_head, lb) for lb in labels], dtype=float)
+        target = instruction_target(instruction)
+        return np.array([phrase_similarity(target, label) for label in labels], dtype=float)
 
-    @staticmethod
-    def _score_tokens(target_tokens: tuple[str, ...], target_head: str | None, label: str) -> float:
-        label_tokens, label_head = canonical_tokens(label)
-        if not target_tokens or not label_tokens:
-            return 0.0
-        wa = _weights(target_tokens, target_head)
-        wb = _weights(label_tokens, label_head)
-        shared = wa.keys() & wb.keys()
-        value = sum(wa[t] + wb[t] for t in shared) / (sum(wa.values()) + sum(wb.values()))
-        colours_a = COLOURS.intersection(target_tokens)
-        colours_b = COLOURS.intersection(label_tokens)
-        if colours_a and colours_b and not (colours_a & colours_b):
-            value *= COLOUR_CONFLICT_FACTOR
-        return float(min(max(value, 0.0), 1.0))
+
+def phrase_similarity(a: str, b: str) -> float:
+    """The lexical relevance of two object phrases (see :class:`LexicalRelevance`), symmetric, in [0, 1]."""
+    tokens_a, head_a = canonical_tokens(a)
+    tokens_b, head_b = canonical_tokens(b)
+    if not tokens_a or not tokens_b:
+        return 0.0
+    wa = _weights(tokens_a, head_a)
+    wb = _weights(tokens_b, head_b)
+    shared = wa.keys() & wb.keys()
+    value = sum(wa[t] + wb[t] for t in shared) / (sum(wa.values()) + sum(wb.values()))
+    if attributes_conflict(a, b):
+        value *= ATTRIBUTE_CONFLICT_FACTOR
+    return float(min(max(value, 0.0), 1.0))
+
+
+class HybridRelevance:
+    """The larger of a learned scorer's relevance and the lexical one, both attribute-aware.
+
+    A small sentence embedding knows that "bin" and "trash can" are alike but misses common synonyms
+    ("robot dog" and "quadruped robot": 0.19 with all-MiniLM-L6-v2); the lexicon knows those but nothing
+    outside it. The maximum keeps what either knows. Both sides agree that two phrases naming different
+    colours (or sizes) are different things: the learned score is scaled by
+    :data:`ATTRIBUTE_CONFLICT_FACTOR` then, as the lexical one already is.
+
+    Args:
+        learned: any scorer (the sentence embedding, an LLM).
+        lexical: the lexical scorer.
+    """
+
+    def __init__(self, learned: RelevanceScorer, lexical: RelevanceScorer | None = None) -> None:
+        self.learned = learned
+        self.lexical = lexical if lexical is not None else LexicalRelevance()
+
+    def score(self, *, instruction: str, label: str) -> float:
+        return float(self.scores(instruction=instruction, labels=(label,))[0])
+
+    def scores(self, *, instruction: str, labels: Sequence[str]) -> FloatArray:
+        learned = np.asarray(self.learned.scores(instruction=instruction, labels=labels), dtype=float)
+        target = instruction_target(instruction)
+        conflict = np.array([attributes_conflict(target, label) for label in labels], dtype=bool)
+        learned = np.where(conflict, learned * ATTRIBUTE_CONFLICT_FACTOR, learned)
+        lexical = np.asarray(self.lexical.scores(instruction=instruction, labels=labels), dtype=float)
+        return np.maximum(learned, lexical)
 
 
 # --------------------------------------------------------------------------------------------------
@@ -450,88 +212,3 @@ class CachedRelevance:
             self.misses += n_missing
             self.hits += len(labels) - n_missing
         return np.array(values, dtype=float)
-
-
-# --------------------------------------------------------------------------------------------------
-# LLM adjudicator (the paper's S_LLM), transport-agnostic
-# --------------------------------------------------------------------------------------------------
-
-
-class TextCompleter(Protocol):
-    """A text-completion backend: an OpenAI-compatible HTTP client, a local vLLM server, a test fake.
-
-    The HTTP implementation belongs to the perception adapters; it must raise on transport errors and
-    time out rather than hang.
-    """
-
-    def complete(self, *, prompt: str, temperature: float) -> str:
-        """Return the model's reply to ``prompt`` decoded at ``temperature``."""
-        ...
-
-
-#: The fixed prompt of the LLM adjudicator (the paper fixes the template and decodes at temperature 0).
-RELEVANCE_PROMPT_TEMPLATE = (
-    "You rank places for a robot searching for an object.\n"
-    'Instruction: "{instruction}"\n'
-    'Target object: "{target}"\n'
-    'Place label: "{label}"\n'
-    "How likely is it that going to this place finds the target object? "
-    "Answer with one number between 0 and 1 and nothing else."
-)
-
-_NUMBER = re.compile(r"[-+]?(?:\d+\.\d*|\.\d+|\d+)(?:[eE][-+]?\d+)?\s*%?")
-
-
-def parse_relevance_reply(reply: str) -> float:
-    """Read the first number of an LLM reply as a relevance in [0, 1].
-
-    A number followed by "%" is divided by 100. Anything else (no number, a number outside [0, 1])
-    is a :class:`RelevanceReplyError`; a garbled reply is never turned into a made-up score.
-    """
-    match = _NUMBER.search(reply)
-    if match is None:
-        raise RelevanceReplyError(f"LLM relevance reply has no number: {reply!r}")
-    text = match.group(0).strip()
-    value = float(text.rstrip("%").strip()) / (100.0 if text.endswith("%") else 1.0)
-    if not (np.isfinite(value) and 0.0 <= value <= 1.0):
-        raise RelevanceReplyError(f"LLM relevance reply {reply!r} gives {value!r}, outside [0, 1]")
-    return value
-
-
-class LLMRelevance:
-    """The paper's LLM adjudicator: one fixed prompt per (instruction, label), temperature 0.
-
-    Wrap it in :class:`CachedRelevance`: a remote call costs a second or more, and the same labels come
-    back every decision.
-
-    Args:
-        completer: the text backend (an HTTP client in production).
-        prompt_template: a ``str.format`` template with ``{instruction}``, ``{target}`` and ``{label}``.
-        temperature: decoding temperature; the paper uses 0 for reproducibility.
-    """
-
-    def __init__(
-        self,
-        completer: TextCompleter,
-        *,
-        prompt_template: str = RELEVANCE_PROMPT_TEMPLATE,
-        temperature: float = 0.0,
-    ) -> None:
-        self.completer = completer
-        self.prompt_template = prompt_template
-        self.temperature = temperature
-
-    def prompt(self, *, instruction: str, label: str) -> str:
-        """The exact prompt sent for one pair."""
-        return self.prompt_template.format(
-            instruction=instruction, target=instruction_target(instruction), label=label
-        )
-
-    def score(self, *, instruction: str, label: str) -> float:
-        reply = self.completer.complete(
-            prompt=self.prompt(instruction=instruction, label=label), temperature=self.temperature
-        )
-        return parse_relevance_reply(reply)
-
-    def scores(self, *, instruction: str, labels: Sequence[str]) -> FloatArray:
-        return np.array([self.score(instruction=instruction, label=lb) for lb in labels], dtype=float)

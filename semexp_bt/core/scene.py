@@ -37,6 +37,10 @@ class SceneObject:
             ``"obstacle"``, ``"wall"`` or ``"clutter"``.
         parts: extra ``(shape, dx, dy, dz, sx, sy, sz, r, g, b, a)`` geoms in the object's frame that
             make it look like itself (a bin's lid, a sign's post); same id, same label.
+        aliases: other names people and models use for the object ("green wheelie bin"); with the label
+            and the category, the names that name it.
+        colour: its colour word ("green"), or "" when it has none worth saying.
+        size: ``"small"`` or ``"large"`` for its kind, or "".
     """
 
     object_id: int
@@ -51,6 +55,14 @@ class SceneObject:
     is_obstacle: bool = True
     role: Literal["goal", "distractor", "occluder", "obstacle", "wall", "clutter"] = "obstacle"
     parts: tuple[tuple[object, ...], ...] = ()
+    aliases: tuple[str, ...] = ()
+    colour: str = ""
+    size: str = ""
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """Every name that names the object: its label, its category and its aliases."""
+        return tuple(dict.fromkeys((self.label, self.category, *self.aliases)))
 
     def boundary_distance_m(self, xy: tuple[float, float]) -> float:
         """2D distance from ``xy`` to the object's footprint (0 inside it).
@@ -80,7 +92,6 @@ class SceneSpec:
         objects: every object, walls included.
         goal_object_id: the id of the goal object.
         instruction: the default instruction (e.g. ``"find the fire extinguisher"``).
-        goal_category: the category the instruction asks for.
         floor_rgba: floor colour.
         outdoor: outdoor scenes get a sky-coloured background instead of a ceiling.
     """
@@ -92,7 +103,6 @@ class SceneSpec:
     objects: tuple[SceneObject, ...]
     goal_object_id: int
     instruction: str
-    goal_category: str
     floor_rgba: tuple[float, float, float, float] = (0.45, 0.45, 0.45, 1.0)
     outdoor: bool = False
     extra: dict[str, object] = field(default_factory=dict)
@@ -106,3 +116,8 @@ class SceneSpec:
     @property
     def goal(self) -> SceneObject:
         return self.object_by_id(self.goal_object_id)
+
+    @property
+    def goal_category(self) -> str:
+        """The goal object's category (the class its instruction asks for)."""
+        return self.goal.category

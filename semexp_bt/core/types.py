@@ -51,13 +51,6 @@ def require_finite(name: str, value: float | npt.ArrayLike) -> None:
         raise InvalidInputError(f"{name} must be finite, got {value!r}")
 
 
-def require_unit_interval(name: str, value: float) -> None:
-    """Raise :class:`InvalidInputError` unless ``value`` is a finite number in [0, 1]."""
-    require_finite(name, value)
-    if not 0.0 <= float(value) <= 1.0:
-        raise InvalidInputError(f"{name} must lie in [0, 1], got {value!r}")
-
-
 @dataclass(frozen=True)
 class CameraIntrinsics:
     """Pinhole intrinsics of a camera, in pixels (as in ``sensor_msgs/CameraInfo`` K).
@@ -243,11 +236,6 @@ class Detection:
     box_xyxy_px: tuple[float, float, float, float]
     label: str
     confidence: float
-
-    @property
-    def center_px(self) -> tuple[float, float]:
-        u0, v0, u1, v1 = self.box_xyxy_px
-        return ((u0 + u1) / 2.0, (v0 + v1) / 2.0)
 
 
 @dataclass(frozen=True)

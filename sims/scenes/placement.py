@@ -35,6 +35,7 @@ from typing import Any
 import numpy as np
 import yaml
 
+from semexp_bt.core.language import COLOURS
 from semexp_bt.core.scene import SceneObject, SceneSpec
 from semexp_bt.core.types import InvalidInputError
 from sims.occupancy import (
@@ -106,10 +107,23 @@ def _numbers(value: Any, count: int, *, where: str) -> list[float]:
     return out
 
 
+def _check_naming(kind: dict[str, Any], *, where: str) -> None:
+    """A kind's other names (``aliases``), ``colour`` and ``size`` (see docs/scenes.md, "Names")."""
+    aliases = kind.get("aliases", [])
+    if not isinstance(aliases, list) or not all(isinstance(a, str) and a.strip() for a in aliases):
+        raise SceneDataError(f"{where}.aliases: expected a list of non-empty names, got {aliases!r}")
+    colour = kind.get("colour", "")
+    if colour and colour not in COLOURS:
+        raise SceneDataError(f"{where}.colour: expected one of {sorted(COLOURS)}, got {colour!r}")
+    size = kind.get("size", "")
+    if size and size not in ("small", "large"):
+        raise SceneDataError(f"{where}.size: expected 'small' or 'large', got {size!r}")
+
+
 def _validate(data: Any, *, source: str) -> None:
     if not isinstance(data, dict):
         raise SceneDataError(f"{source}: expected a mapping at the top level")
-    for key in ("name", "title", "instruction", "goal_category"):
+    for key in ("name", "title", "instruction"):
         _require(data, key, str, where=source)
     width, depth = _numbers(_require(data, "size_m", list, where=source), 2, where=f"{source}: size_m")
     if width <= 0 or depth <= 0:
@@ -134,6 +148,7 @@ def _validate(data: Any, *, source: str) -> None:
         if min(size) <= 0:
             raise SceneDataError(f"{where}.size_m: half extents must be positive, got {size}")
         _numbers(_require(kind, "rgba", list, where=where), 4, where=f"{where}.rgba")
+        _check_naming(kind, where=where)
         for index, part in enumerate(kind.get("parts", [])):
             if not isinstance(part, list) or len(part) != _PART_FIELDS or part[0] not in ("box", "cylinder"):
                 raise SceneDataError(
@@ -244,6 +259,9 @@ class _Layout:
             is_obstacle=bool(kind.get("is_obstacle", True)),
             role=role,  # type: ignore[arg-type]
             parts=tuple(tuple(part) for part in kind.get("parts", [])),
+            aliases=tuple(kind.get("aliases", ())),
+            colour=str(kind.get("colour", "")),
+            size=str(kind.get("size", "")),
         )
 
     def fits(self, obj: SceneObject) -> tuple[bool, np.ndarray | None]:
@@ -413,7 +431,6 @@ def build_scene_from_data(name: str, *, seed: int, max_attempts: int = MAX_LAYOU
             objects=tuple(layout.objects),
             goal_object_id=goal.object_id,
             instruction=data["instruction"],
-            goal_category=data["goal_category"],
             floor_rgba=tuple(float(v) for v in data.get("floor_rgba", [0.45, 0.45, 0.45, 1.0])),  # type: ignore[arg-type]
             outdoor=bool(data.get("outdoor", False)),
             extra={"min_geodesic_m": min_geodesic, "layout_attempt": attempt, "area_m2": width * depth},

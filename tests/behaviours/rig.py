@@ -10,6 +10,10 @@ that sees nothing) or builds its own with ``make_rig(robot=..., script=...)``; t
     rig.show(behaviour)                          # prints the tree (here one leaf) the test asserts on
     assert rig.written_by(behaviour) == ["cmd_twist", "cmd_stamp_s"]
 
+A navigation behaviour's test fills the costmap first: ``rig.map_around()`` integrates the depth frames
+of a full turn in place, ``rig.map_from(pose)`` the frame seen from another pose (where the robot has
+been: its footprint's cells are cleared too), and ``subgoal_at(x, y)`` is an exploration subgoal.
+
 The board is the runner's initial board (``semexp_bt.app.executive.prepare_board``), with the activity
 stream on so that a test can assert which keys the behaviour wrote. The robot is
 :class:`robots.null_robot.NullRobot` (a perfect unicycle, an analytic camera) with two things a test may
@@ -19,6 +23,7 @@ answers come from what the camera sees (``tests.test_executive.seeing`` over its
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, TypeVar
@@ -29,7 +34,7 @@ from behaviours.arbitrate import Arbitrate
 from behaviours.services import SERVICES_KEY, MissionServices
 from behaviours.spec import BuildContext
 from robots.null_robot import NullRobot
-from semexp_bt.core.types import Observation, Pose2D, SafetyState, Twist
+from semexp_bt.core.types import Observation, Pose2D, SafetyState, Subgoal, Twist
 from semexp_bt.perception.interface import PerceptionResult, ReadyJob
 from sims.scripted_perception import ScriptedPerception
 from tests.test_executive import Post, seeing
@@ -58,6 +63,10 @@ class FakeRobot(NullRobot):
 
     def safety(self) -> SafetyState:
         return self.safety_state
+
+    def place(self, pose: Pose2D) -> None:
+        """Put the base at ``pose`` at once (to stage where the robot has been)."""
+        self._pose = pose
 
     def advance(self, duration_s: float) -> None:
         if not self.blocked:
@@ -105,6 +114,21 @@ class Rig:
 
     def get(self, key: str) -> Any:
         return self.board.get(key) if self.board.exists(key) else None
+
+    def map_around(self, turns: int = 8) -> None:
+        """Fill the costmap (``local_map``) from ``turns`` depth frames of a full turn in place; the robot
+        ends as it started."""
+        self.map_from(self.robot.base_pose(), turns=turns)
+
+    def map_from(self, pose: Pose2D, *, turns: int = 1) -> None:
+        """Add to the costmap the depth frames seen from ``pose`` (``turns`` headings of a full turn from
+        its yaw); the robot ends where it was."""
+        costmap = self.get("local_map")
+        here = self.robot.base_pose()
+        for k in range(turns):
+            self.robot.place(Pose2D(pose.x_m, pose.y_m, pose.yaw_rad + k * math.tau / turns))
+            costmap.integrate(self.robot.observe_depth(pixel_grids=[costmap.sampled_pixels]))
+        self.robot.place(here)
 
     def stage_view(self, seen: list[Post], *, directions: bool = False, arbitrate: bool = True) -> None:
         """Write what Perceive (and, with ``arbitrate``, Arbitrate) would write for the robot's current view,
@@ -186,6 +210,11 @@ class Rig:
             if item.client_name in names and item.activity_type in ("WRITE", "INITIALISED")
         ]
         return list(dict.fromkeys(written))
+
+
+def subgoal_at(x_m: float, y_m: float, node_id: int = 7) -> Subgoal:
+    """An exploration subgoal on the floor at (x_m, y_m)."""
+    return Subgoal(node_id=node_id, position_m=(x_m, y_m, 0.0), label="unexplored area", utility=1.0)
 
 
 def compact(statuses: list[py_trees.common.Status]) -> list[str]:

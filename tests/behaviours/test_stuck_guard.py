@@ -21,7 +21,7 @@ def test_a_base_that_does_not_move_fails_after_the_window(make_rig: Callable[...
     assert 1.0 < rig.robot.now_s() <= 1.1
     assert guard.feedback_message.startswith("stuck")
     assert [e["kind"] for e in rig.services.events] == ["stuck"]
-    assert rig.written_by(guard) == []
+    assert rig.written_by(guard) == ["nav_failure"] and rig.get("nav_failure") == "stuck"
 
 
 def test_moving_or_turning_keeps_it_running(rig: Rig) -> None:
@@ -44,6 +44,7 @@ def test_turning_on_the_spot_without_nearing_the_subgoal_fails_after_the_approac
     assert 2.0 < rig.robot.now_s() <= 2.1
     assert guard.feedback_message.startswith("no progress")
     assert [e["kind"] for e in rig.services.events] == ["no_progress"]
+    assert rig.get("nav_failure") == "stuck"
 
 
 def test_nearing_the_subgoal_keeps_it_running(rig: Rig) -> None:

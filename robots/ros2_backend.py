@@ -1,0 +1,802 @@
+"""The ROS 2 backend of :class:`robots.interface.Robot`: a Go1 (or the MuJoCo bridge) over rclpy.
+
+What it speaks is the robot profile's (``robots/ros2_profile.py``, ``robots/go1/ros2.yaml``): the Go1
+driver's ``/cmd_vel``, ``/odom``, ``/imu``, ``/joint_states`` and realsense-ros' colour, aligned depth and
+camera info. rclpy is imported when a :class:`Ros2Robot` is built, never at import time of anything the
+default (MuJoCo) path loads.
+
+How it runs:
+
+- One executor thread spins the node. Subscription callbacks only store the latest messages (a short
+  history for odometry and camera frames) with their arrival time; the tree's ticks read those buffers and
+  convert them (``robots.ros2_messages``). A tick never waits for ROS, except :meth:`Ros2Robot.advance`,
+  which waits until ROS time has moved by ``dt`` (with a deadline), and, in lockstep simulation only,
+  the camera render it asks the bridge for (the world is paused meanwhile; see below).
+- The commanded twist is republished by a steady-clock timer at ``command.rate_hz`` (>= 20 Hz): the
+  driver zeroes the motion ``command.driver_timeout_s`` after the last command.
+- Watchdog: a sensor stream silent past its profile deadline zeroes the twist at once (the timer keeps
+  sending zero) and halts the robot: the next ``advance``/``observe`` raises :class:`RobotHalted` naming
+  the topic. A malformed message halts it the same way, naming the topic and what is wrong.
+- Time: the ROS clock: ``/clock`` with ``use_sim_time`` (and always with the bridge), the system clock
+  otherwise; ``now_s()`` and frame stamps count from the instant the backend became ready, as a mission's
+  clock does in-process (the lockstep bridge's clock starts at 0, so there the two are the same).
+- Camera: colour and aligned depth are paired by stamp (within ``camera.pair_tolerance_s``); the
+  camera-to-world transform is the odometry pose nearest the frame's stamp times the profile's static
+  mount (tf2 has no PyPI wheel, so no TF lookup). ``map`` is ``odom``: no localisation runs.
+- Safety: ``fallen`` from the IMU's tilt (the Go1 spec's threshold); a real robot reports no contact
+  events (the bridge scores collisions against the ground truth itself).
+
+Simulation (``simulation=True``, the bridge ``sims/ros2_bridge.py``): the backend also reads
+``/sim/scene`` (the catalogue for the perception emulator and the bridge's mode) and the segmentation on
+``/sim/camera/segmentation``. In ``lockstep`` mode ``advance(dt)`` sends ``/sim/step`` with the command
+and waits for the odometry and clock of the new time; ``observe``/``observe_depth`` ask for a render of
+the current instant on ``/sim/camera/request`` and wait for it, as the in-process backend renders inside
+the tick. The deadlines then bound each wait instead of a periodic check (the world is paused between
+steps, so silence between them is not a fault).
+"""
+
+from __future__ import annotations
+
+import collections
+import math
+import threading
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any, NoReturn
+
+import numpy as np
+import numpy.typing as npt
+
+from robots.go1 import load_go1_spec
+from robots.interface import Fidelity, Robot
+from robots.ros2_messages import (
+    MessageError,
+    camera_info_to_intrinsics,
+    fill_stamp,
+    fill_twist,
+    image_to_depth_m,
+    image_to_rgb,
+    image_to_segmentation,
+    imu_to_reading,
+    joint_state_from_msg,
+    odometry_to_transform,
+    odometry_to_twist,
+    pose2d_of,
+    stamp_to_ns,
+)
+from robots.ros2_profile import SENSOR_STREAMS, Ros2Profile, TopicQos, load_ros2_profile
+from robots.ros2_sim_protocol import (
+    CAMERA_REQUEST_TOPIC,
+    HEARTBEAT_TOPIC,
+    OUTCOME_TOPIC,
+    SCENE_TOPIC,
+    SEGMENTATION_TOPIC,
+    STEP_TOPIC,
+    TIME_TOPIC,
+    CameraRequest,
+    SimulationInfo,
+    decode_simulation_info,
+    encode_camera_request,
+)
+from semexp_bt.core.types import (
+    ImuReading,
+    InvalidInputError,
+    JointState,
+    Observation,
+    PixelGrid,
+    Pose2D,
+    SafetyState,
+    Twist,
+    require_finite,
+)
+
+#: Odometry kept for pairing camera frames with the pose they were taken at (about 1 s at 50 Hz).
+ODOM_HISTORY = 64
+#: Camera frames kept per stream for pairing colour with depth by stamp.
+FRAME_HISTORY = 8
+#: Completed camera pairs remembered for :meth:`Ros2Robot.camera_pair_arrivals`.
+PAIR_LOG = 4096
+#: How often (s, steady clock) the watchdog looks at the streams' ages.
+WATCHDOG_PERIOD_S = 0.05
+#: Zero twists sent on close, so that the driver has one even if a datagram is lost.
+CLOSING_ZERO_COMMANDS = 3
+
+
+class Ros2Error(RuntimeError):
+    """The ROS 2 link failed (rclpy missing, a peer never appeared)."""
+
+
+class RobotHalted(Ros2Error):
+    """The backend stopped the robot: a sensor stream went silent or sent garbage, or the bridge vanished.
+
+    Attributes:
+        topic: the topic at fault.
+        reason: what happened, for the mission's outcome.
+    """
+
+    def __init__(self, topic: str, reason: str) -> None:
+        super().__init__(f"{topic}: {reason}")
+        self.topic = topic
+        self.reason = reason
+
+
+def import_rclpy() -> Any:
+    """rclpy, or a clear error saying how to get it."""
+    try:
+        import rclpy
+    except ImportError as error:
+        raise Ros2Error(
+            "rclpy is not importable in this Python: run the ROS 2 commands with the ROS 2 environment "
+            "(`make ros2-env`, then .venv-ros2/bin/semexp-bt ...; docs/ros2.md), or source a ROS 2 Jazzy "
+            f"installation ({error})"
+        ) from None
+    return rclpy
+
+
+def qos_profile(qos: TopicQos) -> Any:
+    """An rclpy ``QoSProfile`` from a profile's topic QoS (keep last ``depth``)."""
+    from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+    return QoSProfile(
+        history=HistoryPolicy.KEEP_LAST,
+        depth=qos.depth,
+        reliability=ReliabilityPolicy.RELIABLE
+        if qos.reliability == "reliable"
+        else ReliabilityPolicy.BEST_EFFORT,
+        durability=DurabilityPolicy.TRANSIENT_LOCAL
+        if qos.durability == "transient_local"
+        else DurabilityPolicy.VOLATILE,
+    )
+
+
+#: QoS of the ``/sim/...`` topics: reliable (a lost step would stall the lockstep until a deadline).
+SIM_QOS = TopicQos(reliability="reliable", durability="volatile", depth=10)
+#: QoS of the latched ``/sim/scene`` and ``/sim/outcome``.
+SIM_LATCHED_QOS = TopicQos(reliability="reliable", durability="transient_local", depth=1)
+
+
+def ros_context(rclpy: Any) -> Any:
+    """A fresh initialised rclpy context without signal handlers (the caller owns SIGINT/SIGTERM)."""
+    from rclpy.signals import SignalHandlerOptions
+
+    context = rclpy.Context()
+    rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
+    return context
+
+
+@dataclass
+class _Stamped:
+    """A message with its stamp (ns) and the steady time it arrived."""
+
+    stamp_ns: int
+    msg: Any
+    arrived_s: float
+
+
+class Ros2Robot(Robot):
+    """A Go1 over ROS 2 (see the module docstring).
+
+    Args:
+        profile: the robot profile (the shipped Go1 profile when None).
+        simulation: also read the bridge's ``/sim/...`` topics (scene catalogue, segmentation, lockstep).
+        node_name: the ROS node name.
+
+    Raises:
+        Ros2Error: rclpy is not importable.
+    """
+
+    def __init__(
+        self,
+        profile: Ros2Profile | None = None,
+        *,
+        simulation: bool = False,
+        node_name: str = "semexp_bt_executive",
+    ) -> None:
+        rclpy = import_rclpy()
+        from geometry_msgs.msg import Twist as TwistMsg
+        from geometry_msgs.msg import TwistStamped
+        from nav_msgs.msg import Odometry
+        from rclpy.clock import Clock, ClockType
+        from rclpy.executors import SingleThreadedExecutor
+        from rosgraph_msgs.msg import Clock as ClockMsg
+        from sensor_msgs.msg import CameraInfo, Image, Imu
+        from sensor_msgs.msg import JointState as JointStateMsg
+        from std_msgs.msg import Float64, Header, String
+
+        self.profile = profile or load_ros2_profile()
+        self.simulation = simulation
+        self._use_sim_time = self.profile.use_sim_time or simulation
+        self._spec = load_go1_spec()
+        self._twist_msg_type = TwistMsg
+        self._step_msg_type = TwistStamped
+        self._string_msg_type = String
+
+        self._lock = threading.Condition()
+        self._odom: collections.deque[tuple[int, npt.NDArray[np.float64], Twist]] = collections.deque(
+            maxlen=ODOM_HISTORY
+        )
+        self._latest: dict[str, _Stamped] = {}
+        self._frames: dict[str, collections.deque[_Stamped]] = {
+            stream: collections.deque(maxlen=FRAME_HISTORY)
+            for stream in ("color_image", "depth_image", "segmentation")
+        }
+        self._arrivals: dict[str, int] = collections.defaultdict(int)
+        self._pairs_completed: collections.deque[tuple[int, float]] = collections.deque(maxlen=PAIR_LOG)
+        self._clock_ns: int | None = None
+        self._sim_time_s: float | None = None
+        self._halt: RobotHalted | None = None
+        self._command = Twist.zero()
+        self._target_ns: int | None = None
+        self._epoch_ns = 0
+        self._bridge_heard_s = time.monotonic()
+        self._simulation_info: SimulationInfo | None = None
+        self._ready = False
+        self._closed = False
+
+        self._rclpy = rclpy
+        self._context = ros_context(rclpy)
+        # No parameter services: every entity costs each executor wake-up (rclpy rebuilds its wait set).
+        self.node = rclpy.create_node(node_name, context=self._context, start_parameter_services=False)
+        topics, qos = self.profile.topics, self.profile.qos
+        self._cmd_pub = self.node.create_publisher(TwistMsg, topics.cmd_vel, qos_profile(qos.cmd_vel))
+        subscribe = self.node.create_subscription
+        subscribe(Odometry, topics.odom, self._on_odom, qos_profile(qos.odom))
+        subscribe(Imu, topics.imu, self._store("imu"), qos_profile(qos.imu))
+        subscribe(
+            JointStateMsg, topics.joint_states, self._store("joint_states"), qos_profile(qos.joint_states)
+        )
+        subscribe(CameraInfo, topics.color_info, self._store("color_info"), qos_profile(qos.color_info))
+        subscribe(Image, topics.color_image, self._store_frame("color_image"), qos_profile(qos.color_image))
+        subscribe(Image, topics.depth_image, self._store_frame("depth_image"), qos_profile(qos.depth_image))
+        if self._use_sim_time and not simulation:  # the bridge's float clock (/sim/time) serves then
+            subscribe(ClockMsg, topics.clock, self._on_clock, qos_profile(qos.clock))
+        self._step_pub: Any = None
+        self._request_pub: Any = None
+        self._outcome_pub: Any = None
+        if simulation:
+            subscribe(String, SCENE_TOPIC, self._on_scene, qos_profile(SIM_LATCHED_QOS))
+            subscribe(Image, SEGMENTATION_TOPIC, self._store_frame("segmentation"), qos_profile(SIM_QOS))
+            subscribe(Header, HEARTBEAT_TOPIC, self._on_heartbeat, qos_profile(SIM_QOS))
+            subscribe(Float64, TIME_TOPIC, self._on_sim_time, qos_profile(SIM_QOS))
+            self._step_pub = self.node.create_publisher(TwistStamped, STEP_TOPIC, qos_profile(SIM_QOS))
+            self._request_pub = self.node.create_publisher(String, CAMERA_REQUEST_TOPIC, qos_profile(SIM_QOS))
+            self._outcome_pub = self.node.create_publisher(
+                String, OUTCOME_TOPIC, qos_profile(SIM_LATCHED_QOS)
+            )
+        steady = Clock(clock_type=ClockType.STEADY_TIME)
+        self.node.create_timer(1.0 / self.profile.command.rate_hz, self._send_command, clock=steady)
+        self._watchdog_timer = self.node.create_timer(WATCHDOG_PERIOD_S, self._watchdog, clock=steady)
+        self._executor = SingleThreadedExecutor(context=self._context)
+        self._executor.add_node(self.node)
+        self._spinner = threading.Thread(target=self._spin, name="ros2-robot-spin", daemon=True)
+        self._spinner.start()
+
+    # ------------------------------------------------------------------ executor thread
+
+    def _spin(self) -> None:
+        try:
+            self._executor.spin()
+        except Exception as error:
+            if not self._closed:
+                self._halt_now("rclpy executor", f"the ROS executor stopped ({error!r})")
+
+    def _halt_now(self, topic: str, reason: str) -> None:
+        """Zero the command at once and make the next tick-side call raise (first fault wins)."""
+        with self._lock:
+            if self._halt is None:
+                self._halt = RobotHalted(topic, reason)
+            self._command = Twist.zero()
+            self._lock.notify_all()
+        self._publish_twist(Twist.zero())
+
+    def _publish_twist(self, twist: Twist) -> None:
+        if self._closed:
+            return
+        msg = self._twist_msg_type()
+        fill_twist(msg, twist)
+        self._cmd_pub.publish(msg)
+
+    def _send_command(self) -> None:
+        with self._lock:
+            command = self._command
+        self._publish_twist(command)
+
+    def _watchdog(self) -> None:
+        if not self._ready or self.lockstep:
+            return
+        now = time.monotonic()
+        with self._lock:
+            if self._halt is not None:
+                return
+            for stream in self._watched_streams():
+                last = self._latest.get(stream)
+                deadline = self.profile.deadline_of(stream)
+                if last is not None and now - last.arrived_s > deadline:
+                    silent_s = now - last.arrived_s
+                    break
+            else:
+                return
+        self._halt_now(
+            self.profile.topic_of(stream),
+            f"silent for {silent_s:.2f} s (deadline {deadline:.2f} s): robot stopped",
+        )
+
+    def _record(self, stream: str, stamp_ns: int, msg: Any) -> _Stamped:
+        entry = _Stamped(stamp_ns, msg, time.monotonic())
+        self._bridge_heard_s = entry.arrived_s
+        self._latest[stream] = entry
+        self._arrivals[stream] += 1
+        return entry
+
+    def _store(self, stream: str) -> Callable[[Any], None]:
+        def callback(msg: Any) -> None:
+            with self._lock:
+                self._record(stream, stamp_to_ns(msg.header.stamp), msg)
+                self._lock.notify_all()
+
+        return callback
+
+    def _store_frame(self, stream: str) -> Callable[[Any], None]:
+        other = {"color_image": "depth_image", "depth_image": "color_image"}.get(stream)
+
+        def callback(msg: Any) -> None:
+            with self._lock:
+                entry = self._record(stream, stamp_to_ns(msg.header.stamp), msg)
+                self._frames[stream].append(entry)
+                if other is not None and any(f.stamp_ns == entry.stamp_ns for f in self._frames[other]):
+                    self._pairs_completed.append((entry.stamp_ns, entry.arrived_s))
+                self._lock.notify_all()
+
+        return callback
+
+    def camera_pair_arrivals(self) -> list[tuple[int, float]]:
+        """``(stamp_ns, steady time)`` at which each recent colour + depth pair became complete (for the
+        latency benchmark: ``time.monotonic`` is the same clock in every process of the machine)."""
+        with self._lock:
+            return list(self._pairs_completed)
+
+    def _on_odom(self, msg: Any) -> None:
+        try:
+            transform, twist = odometry_to_transform(msg), odometry_to_twist(msg)
+        except MessageError as error:
+            self._halt_now(self.profile.topics.odom, f"malformed odometry ({error})")
+            return
+        stamp = stamp_to_ns(msg.header.stamp)
+        with self._lock:
+            self._odom.append((stamp, transform, twist))
+            self._record("odom", stamp, msg)
+            self._lock.notify_all()
+
+    def _on_clock(self, msg: Any) -> None:
+        with self._lock:
+            self._clock_ns = stamp_to_ns(msg.clock)
+            self._arrivals["clock"] += 1
+            self._bridge_heard_s = time.monotonic()
+            self._lock.notify_all()
+
+    def _on_sim_time(self, msg: Any) -> None:
+        with self._lock:
+            self._sim_time_s = float(msg.data)
+            self._bridge_heard_s = time.monotonic()
+            self._lock.notify_all()
+
+    def _on_heartbeat(self, msg: Any) -> None:
+        del msg
+        with self._lock:
+            self._bridge_heard_s = time.monotonic()
+
+    def _on_scene(self, msg: Any) -> None:
+        try:
+            info = decode_simulation_info(msg.data)
+        except InvalidInputError as error:
+            self._halt_now(SCENE_TOPIC, str(error))
+            return
+        with self._lock:
+            self._simulation_info = info
+            self._lock.notify_all()
+        if info.mode == "lockstep":  # deadlines bound the waits instead; one entity less per wake-up
+            self._watchdog_timer.cancel()
+
+    # ------------------------------------------------------------------ readiness
+
+    @property
+    def lockstep(self) -> bool:
+        """Whether the bridge steps the world per tick (known once ``/sim/scene`` has arrived)."""
+        info = self._simulation_info
+        return info is not None and info.mode == "lockstep"
+
+    @property
+    def simulation_info(self) -> SimulationInfo | None:
+        """The bridge's announcement (None on a real robot)."""
+        return self._simulation_info
+
+    def _watched_streams(self) -> tuple[str, ...]:
+        if self.lockstep:  # camera frames come on request only
+            return ("odom", "imu", "joint_states")
+        return SENSOR_STREAMS
+
+    def _missing(self) -> list[str]:
+        missing = [] if not self.simulation or self._simulation_info is not None else [SCENE_TOPIC]
+        if self.simulation and self._simulation_info is None:
+            return missing  # which streams to expect depends on the bridge's mode
+        missing += [self.profile.topic_of(s) for s in self._watched_streams() if s not in self._latest]
+        if self.simulation and self._sim_time_s is None:
+            missing.append(TIME_TOPIC)
+        elif self._use_sim_time and not self.simulation and self._clock_ns is None:
+            missing.append(self.profile.topics.clock)
+        return missing
+
+    def wait_until_ready(self, timeout_s: float | None = None) -> None:
+        """Wait for every stream's first message (and the bridge's scene in simulation).
+
+        Raises:
+            Ros2Error: naming the topics still silent after ``timeout_s`` (the profile's startup deadline).
+            RobotHalted: a stream sent garbage meanwhile.
+        """
+        timeout = self.profile.deadlines_s.startup_s if timeout_s is None else timeout_s
+        with self._lock:
+            self._lock.wait_for(lambda: not self._missing() or self._halt is not None, timeout=timeout)
+            self._raise_if_halted()
+            missing = self._missing()
+            if missing:
+                hint = " (is `semexp-bt sim-bridge` running?)" if self.simulation else ""
+                raise Ros2Error(f"no message within {timeout:.1f} s on {', '.join(missing)}{hint}")
+            self._target_ns = self._epoch_ns = self._now_ns()
+            self._ready = True
+
+    def _raise_if_halted(self) -> None:
+        if self._halt is not None:
+            raise self._halt
+
+    # ------------------------------------------------------------------ clock
+
+    def _now_ns(self) -> int:
+        if self.simulation:
+            return int(round((self._sim_time_s or 0.0) * 1e9))
+        if self._use_sim_time:
+            return int(self._clock_ns or 0)
+        return time.time_ns()
+
+    def now_s(self) -> float:
+        """Seconds of ROS time since the backend became ready; in lockstep, the simulator's own float clock
+        (``/sim/time``, of which ``/clock`` is the nanosecond rounding; the lockstep clock starts at 0)."""
+        with self._lock:
+            return self._now_s_locked()
+
+    def _now_s_locked(self) -> float:
+        if self.lockstep:
+            return self._sim_time_s or 0.0
+        return (self._now_ns() - self._epoch_ns) * 1e-9
+
+    @property
+    def epoch_s(self) -> float:
+        """The ROS time (s) at which the backend became ready: ``now_s()`` counts from here."""
+        return self._epoch_ns * 1e-9
+
+    def _sim_time_reached(self, target_ns: int) -> bool:
+        """Lockstep: the float clock has reached ``target_ns`` (to the nanosecond)."""
+        return self._sim_time_s is not None and int(round(self._sim_time_s * 1e9)) >= target_ns
+
+    def advance(self, duration_s: float) -> None:
+        """Wait until ROS time has moved by ``duration_s`` since the last target (lockstep: step the bridge).
+
+        Raises:
+            RobotHalted: the robot was halted, or ROS time did not move within the deadline (the bridge
+                or the clock is gone).
+        """
+        require_finite("duration_s", duration_s)
+        if duration_s < 0.0:
+            raise InvalidInputError(f"duration_s must be >= 0, got {duration_s}")
+        with self._lock:
+            self._raise_if_halted()
+            if self._target_ns is None:
+                self._target_ns = self._now_ns()
+            target = self._target_ns + int(round(duration_s * 1e9))
+            command = self._command
+        if self.lockstep:
+            self._step_to(target, command)
+        else:
+            self._wait_for_time(target)
+
+    def _step_to(self, target_ns: int, command: Twist) -> None:
+        msg = self._step_msg_type()
+        fill_stamp(msg.header.stamp, target_ns * 1e-9)
+        fill_twist(msg.twist, command)
+        self._step_pub.publish(msg)
+        deadline = self.profile.deadline_of("odom")
+        with self._lock:
+            arrived = self._await_bridge(
+                lambda: (
+                    self._sim_time_reached(target_ns) and bool(self._odom) and self._odom[-1][0] >= target_ns
+                ),
+                deadline,
+            )
+            if not arrived:
+                stepped = bool(self._odom) and self._odom[-1][0] >= target_ns
+                topic = TIME_TOPIC if stepped else self.profile.topics.odom
+                self._halt_locked(
+                    topic, f"the simulation bridge fell silent for {deadline:.2f} s during a step"
+                )
+            self._target_ns = target_ns
+
+    def _await_bridge(self, done: Callable[[], bool], deadline_s: float) -> bool:
+        """Lockstep: wait (lock held) until ``done()``, while the bridge keeps talking; False once it has
+        sent nothing (not even its heartbeat) for ``deadline_s``. Raises if the robot was halted meanwhile.
+
+        A busy bridge (a render on a loaded machine) is slow, not gone: the world is paused meanwhile.
+        """
+        while True:
+            silent_s = time.monotonic() - self._bridge_heard_s
+            if self._lock.wait_for(
+                lambda: self._halt is not None or done(), timeout=max(deadline_s - silent_s, 0.0)
+            ):
+                self._raise_if_halted()
+                return True
+            if time.monotonic() - self._bridge_heard_s >= deadline_s:
+                return False
+
+    def _halt_locked(self, topic: str, reason: str) -> NoReturn:
+        """:meth:`_halt_now` from a thread that holds the lock; raises."""
+        if self._halt is None:
+            self._halt = RobotHalted(topic, reason)
+        self._command = Twist.zero()
+        self._lock.notify_all()
+        halt = self._halt
+        self._lock.release()
+        try:
+            self._publish_twist(Twist.zero())
+        finally:
+            self._lock.acquire()
+        raise halt
+
+    def _wait_for_time(self, target_ns: int) -> None:
+        """Live: wait until ROS time reaches ``target_ns`` (the system clock, or /clock and /sim/time)."""
+        with self._lock:
+            period_ns = target_ns - (self._target_ns or target_ns)
+            if not self._use_sim_time:
+                wait_s = max(0.0, (target_ns - time.time_ns()) * 1e-9)
+                self._lock.wait_for(lambda: self._halt is not None, timeout=wait_s)
+            else:
+                deadline = self.profile.deadline_of("odom") + (target_ns - self._now_ns()) * 1e-9
+                moved = self._lock.wait_for(
+                    lambda: self._halt is not None or self._now_ns() >= target_ns, timeout=max(deadline, 0.0)
+                )
+                self._raise_if_halted()
+                if not moved:
+                    topic = TIME_TOPIC if self.simulation else self.profile.topics.clock
+                    self._halt_locked(topic, f"ROS time did not reach the next tick within {deadline:.2f} s")
+            self._raise_if_halted()
+            now = self._now_ns()
+            # A tick that overran by a whole period does not make the next ones rush to catch up.
+            self._target_ns = target_ns if now - target_ns < period_ns else now
+
+    # ------------------------------------------------------------------ camera
+
+    def _pose_at(self, stamp_ns: int) -> npt.NDArray[np.float64]:
+        """T_odom<-base of the odometry sample nearest ``stamp_ns`` (call with the lock held)."""
+        if not self._odom:
+            raise RobotHalted(self.profile.topics.odom, "no odometry to place the camera frame")
+        best = min(self._odom, key=lambda sample: abs(sample[0] - stamp_ns))
+        return best[1]
+
+    def _latest_pair(self, *, need_color: bool) -> tuple[_Stamped | None, _Stamped, _Stamped | None]:
+        """The newest (colour, depth, segmentation) with matching stamps (call with the lock held)."""
+        tolerance_ns = int(self.profile.camera.pair_tolerance_s * 1e9)
+        depths = list(self._frames["depth_image"])
+        if not depths:
+            raise RobotHalted(self.profile.topics.depth_image, "no depth frame yet")
+        for depth in reversed(depths):
+            color = None
+            if need_color:
+                color = next(
+                    (
+                        c
+                        for c in reversed(self._frames["color_image"])
+                        if abs(c.stamp_ns - depth.stamp_ns) <= tolerance_ns
+                    ),
+                    None,
+                )
+                if color is None:
+                    continue
+            segmentation = None
+            if self.simulation and need_color:
+                segmentation = next(
+                    (s for s in reversed(self._frames["segmentation"]) if s.stamp_ns == color.stamp_ns),  # type: ignore[union-attr]
+                    None,
+                )
+                if segmentation is None:
+                    continue
+            return color, depth, segmentation
+        topic = self.profile.topics.color_image if need_color else self.profile.topics.depth_image
+        raise RobotHalted(topic, "no colour frame pairs with a depth frame by stamp")
+
+    def _request_frame(self, request: CameraRequest) -> None:
+        """Lockstep: ask the bridge to render now and wait for the frames (call with the lock held)."""
+        now = self._now_ns()
+        wanted = ["color_info", "depth_image"] + (
+            ["color_image", "segmentation"] if request.kind == "full" else []
+        )
+        seen = {stream: self._arrivals[stream] for stream in wanted}
+        msg = self._string_msg_type()
+        msg.data = encode_camera_request(request)
+        self._request_pub.publish(msg)
+        deadline = self.profile.deadline_of("depth_image")
+
+        def arrived() -> bool:
+            return all(self._arrivals[s] > seen[s] and self._latest[s].stamp_ns == now for s in wanted)
+
+        if not self._await_bridge(arrived, deadline):
+            missing = [s for s in wanted if not (self._arrivals[s] > seen[s])]
+            stream = missing[0] if missing else "depth_image"
+            topic = SEGMENTATION_TOPIC if stream == "segmentation" else self.profile.topic_of(stream)
+            self._halt_locked(
+                topic, f"the simulation bridge fell silent for {deadline:.2f} s during a render"
+            )
+        self._raise_if_halted()
+
+    def _observation(
+        self, color: _Stamped | None, depth: _Stamped, segmentation: _Stamped | None
+    ) -> Observation:
+        """Convert a paired frame (call with the lock held)."""
+        info = self._latest.get("color_info")
+        if info is None:
+            raise RobotHalted(self.profile.topics.color_info, "no camera info yet")
+        topics = self.profile.topics
+        try:
+            intrinsics = camera_info_to_intrinsics(info.msg)
+        except MessageError as error:
+            self._halt_locked(topics.color_info, str(error))
+        try:
+            depth_m = image_to_depth_m(depth.msg)
+        except MessageError as error:
+            self._halt_locked(topics.depth_image, str(error))
+        rgb = np.empty((0, 0, 3), dtype=np.uint8)
+        if color is not None:
+            try:
+                rgb = image_to_rgb(color.msg)
+            except MessageError as error:
+                self._halt_locked(topics.color_image, str(error))
+        seg = None
+        if segmentation is not None:
+            try:
+                seg = image_to_segmentation(segmentation.msg)
+            except MessageError as error:
+                self._halt_locked(SEGMENTATION_TOPIC, str(error))
+        if depth_m.shape != (intrinsics.height_px, intrinsics.width_px) or (
+            color is not None and rgb.shape[:2] != depth_m.shape
+        ):
+            self._halt_locked(
+                topics.depth_image,
+                f"frame sizes disagree: depth {depth_m.shape}, colour {rgb.shape[:2]}, "
+                f"camera info {intrinsics.height_px}x{intrinsics.width_px}",
+            )
+        base_to_odom = self._pose_at(depth.stamp_ns)
+        return Observation(
+            rgb=rgb,
+            depth_m=depth_m,
+            intrinsics=intrinsics,
+            camera_to_world=base_to_odom @ self._optical_to_base,
+            base_pose=pose2d_of(base_to_odom),
+            # Lockstep frames are rendered at the current instant: stamp them with the float clock.
+            stamp_s=self._now_s_locked() if self.lockstep else (depth.stamp_ns - self._epoch_ns) * 1e-9,
+            segmentation=seg,
+        )
+
+    @property
+    def _optical_to_base(self) -> npt.NDArray[np.float64]:
+        return self.profile.optical_to_base()
+
+    def observe(self) -> Observation:
+        """The latest colour + aligned depth pair (lockstep: rendered now), with the pose it was taken at."""
+        with self._lock:
+            self._raise_if_halted()
+            if self.lockstep:
+                self._request_frame(CameraRequest(kind="full"))
+            return self._observation(*self._latest_pair(need_color=True))
+
+    def observe_depth(self, *, pixel_grids: Sequence[PixelGrid] | None = None) -> Observation:
+        """The latest depth frame; ``rgb`` is empty. Lockstep: depth rendered now at ``pixel_grids``."""
+        with self._lock:
+            self._raise_if_halted()
+            if self.lockstep:
+                grids = None if pixel_grids is None else tuple(pixel_grids)
+                self._request_frame(CameraRequest(kind="depth", grids=grids))
+            _, depth, _ = self._latest_pair(need_color=False)
+            return self._observation(None, depth, None)
+
+    # ------------------------------------------------------------------ state
+
+    def base_pose(self) -> Pose2D:
+        with self._lock:
+            if not self._odom:
+                raise RobotHalted(self.profile.topics.odom, "no odometry yet")
+            return pose2d_of(self._odom[-1][1])
+
+    def base_twist(self) -> Twist:
+        with self._lock:
+            if not self._odom:
+                raise RobotHalted(self.profile.topics.odom, "no odometry yet")
+            return self._odom[-1][2]
+
+    def _convert_latest(self, stream: str, convert: Callable[[Any], Any]) -> Any:
+        with self._lock:
+            entry = self._latest.get(stream)
+            if entry is None:
+                raise RobotHalted(self.profile.topic_of(stream), "no message yet")
+            try:
+                return convert(entry.msg)
+            except MessageError as error:
+                self._halt_locked(self.profile.topic_of(stream), str(error))
+
+    def joint_state(self) -> JointState:
+        names = self._spec.joint_names
+        state: JointState = self._convert_latest("joint_states", lambda msg: joint_state_from_msg(msg, names))
+        return state
+
+    def imu(self) -> ImuReading:
+        reading: ImuReading = self._convert_latest("imu", imu_to_reading)
+        return reading
+
+    def safety(self) -> SafetyState:
+        """``fallen`` when the IMU's tilt exceeds the Go1 spec's; no contact events on a real robot."""
+        w, x, y, z = (float(v) for v in self.imu().orientation_wxyz)
+        # The angle between the body's z axis and the world's: cos(tilt) = R[2, 2].
+        cos_tilt = 1.0 - 2.0 * (x * x + y * y) / max(w * w + x * x + y * y + z * z, 1e-12)
+        tilt = math.acos(max(-1.0, min(1.0, cos_tilt)))
+        return SafetyState(fallen=tilt > self._spec.fall_tilt_rad)
+
+    @property
+    def fidelity(self) -> Fidelity:
+        """``kinematic``: the robot walks by itself; the executive commands twists (no gait runs here)."""
+        return "kinematic"
+
+    # ------------------------------------------------------------------ commands
+
+    def command_twist(self, twist: Twist) -> None:
+        require_finite("twist", [twist.linear_x_mps, twist.linear_y_mps, twist.angular_z_radps])
+        with self._lock:
+            if self._halt is not None:
+                return  # a halted robot stays stopped; the next advance() raises
+            self._command = twist
+        if not self.lockstep:
+            self._publish_twist(twist)
+
+    def command_joint_targets(self, targets_rad: npt.NDArray[np.float64]) -> None:
+        raise InvalidInputError(
+            "the ROS 2 backend drives the Go1 through its driver's /cmd_vel; joint targets are not available"
+        )
+
+    def stop(self) -> None:
+        with self._lock:
+            self._command = Twist.zero()
+        self._publish_twist(Twist.zero())
+
+    def report_outcome(self, payload: str, *, timeout_s: float = 2.0) -> bool:
+        """Simulation: publish the mission's outcome on ``/sim/outcome`` and wait until the bridge has it."""
+        if self._outcome_pub is None:
+            return False
+        from rclpy.duration import Duration
+
+        msg = self._string_msg_type()
+        msg.data = payload
+        self._outcome_pub.publish(msg)
+        return bool(self._outcome_pub.wait_for_all_acked(Duration(seconds=timeout_s)))
+
+    def close(self) -> None:
+        """Send zero twists, then stop the executor and the ROS context (idempotent)."""
+        if self._closed:
+            return
+        with self._lock:
+            self._command = Twist.zero()
+        for _ in range(CLOSING_ZERO_COMMANDS):
+            self._publish_twist(Twist.zero())
+        self._closed = True
+        self._executor.shutdown(timeout_sec=1.0)
+        self._spinner.join(timeout=2.0)
+        if not self._spinner.is_alive():  # a node still in the executor's hands would block destroy_node
+            self.node.destroy_node()
+        self._context.try_shutdown()
+
+
+__all__ = ["Ros2Error", "Ros2Robot", "RobotHalted", "import_rclpy", "qos_profile", "ros_context"]

@@ -1,0 +1,242 @@
+"""The simulation-only side of the ROS 2 link: ``/sim/...`` topics between the MuJoCo bridge and the executive.
+
+The driver's and the camera's topics (the robot profile's) carry what a real Go1 carries. What only a
+simulation has travels here, never on those:
+
+| topic | type | from -> to | what |
+| --- | --- | --- | --- |
+| ``/sim/scene`` | std_msgs/String (JSON), transient local | bridge -> executive | the scene's catalogue for the perception emulator: object ids, labels, categories, roles, sizes; no positions |
+| ``/sim/step`` | geometry_msgs/TwistStamped | executive -> bridge | lockstep: step the world to ``header.stamp`` applying ``twist`` |
+| ``/sim/camera/request`` | std_msgs/String (JSON) | executive -> bridge | lockstep: render the camera now (``full``, or ``depth`` at pixel grids) |
+| ``/sim/camera/segmentation`` | sensor_msgs/Image 16UC1 (id + 1) | bridge -> executive | the segmentation of each full frame, stamped as the colour frame |
+| ``/sim/outcome`` | std_msgs/String (JSON), transient local | executive -> bridge | the mission's declared outcome and confirmed targets, for the bridge's scoring |
+| ``/sim/time`` | std_msgs/Float64 | bridge -> executive | the simulator's clock in float seconds (``/clock`` is its nanosecond rounding); the lockstep executive's clock, so that its time comparisons are the in-process run's to the bit |
+| ``/sim/heartbeat`` | std_msgs/Header | bridge -> executive | every 0.1 s from a thread of its own: the bridge is alive, if busy (a lockstep wait halts only after the deadline passes without it) |
+
+The bridge keeps the ground truth (where things are, which object is reached, collisions) to itself and
+scores the episode; the executive's emulator needs only what a detector "knows" about the classes.
+
+This module is plain data (no rclpy): the names and the JSON payloads, encoded and decoded in one place.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any, Literal
+
+from semexp_bt.core.scene import SceneObject, SceneSpec
+from semexp_bt.core.types import InvalidInputError, PixelGrid
+
+SCENE_TOPIC = "/sim/scene"
+STEP_TOPIC = "/sim/step"
+CAMERA_REQUEST_TOPIC = "/sim/camera/request"
+SEGMENTATION_TOPIC = "/sim/camera/segmentation"
+OUTCOME_TOPIC = "/sim/outcome"
+HEARTBEAT_TOPIC = "/sim/heartbeat"
+TIME_TOPIC = "/sim/time"
+#: The bridge's heartbeat period (s, wall clock).
+HEARTBEAT_PERIOD_S = 0.1
+
+BridgeMode = Literal["lockstep", "realtime"]
+#: ``lockstep``: the world steps one control period per executive tick and renders on request (the
+#: in-process run's semantics, over DDS); ``realtime``: it runs on the wall clock like a robot.
+BRIDGE_MODES: tuple[str, ...] = ("lockstep", "realtime")
+
+FrameKind = Literal["full", "depth"]
+
+
+class SimProtocolError(InvalidInputError):
+    """A ``/sim/...`` payload that does not parse (names the topic and the field)."""
+
+
+@dataclass(frozen=True)
+class SimulationInfo:
+    """What the bridge announces on ``/sim/scene``.
+
+    Attributes:
+        mode: ``lockstep`` or ``realtime``.
+        control_period_s: the world's control period (one step).
+        seed: the episode's seed (the emulator's noise is seeded with it in-process too).
+        scene: the catalogue (positions withheld).
+    """
+
+    mode: BridgeMode
+    control_period_s: float
+    seed: int
+    scene: SceneSpec
+
+
+def _object_entry(obj: SceneObject) -> dict[str, Any]:
+    return {
+        "object_id": obj.object_id,
+        "name": obj.name,
+        "label": obj.label,
+        "category": obj.category,
+        "shape": obj.shape,
+        "size_m": list(obj.size_m),
+        "is_obstacle": obj.is_obstacle,
+        "role": obj.role,
+        "aliases": list(obj.aliases),
+        "colour": obj.colour,
+        "size": obj.size,
+    }
+
+
+def encode_simulation_info(scene: SceneSpec, *, mode: BridgeMode, control_period_s: float, seed: int) -> str:
+    """The ``/sim/scene`` payload: the scene's catalogue without positions, yaws, bounds or parts."""
+    return json.dumps(
+        {
+            "mode": mode,
+            "control_period_s": control_period_s,
+            "seed": seed,
+            "scene": {
+                "name": scene.name,
+                "title": scene.title,
+                "seed": scene.seed,
+                "instruction": scene.instruction,
+                "goal_object_id": scene.goal_object_id,
+                "outdoor": scene.outdoor,
+                "objects": [_object_entry(obj) for obj in scene.objects],
+            },
+        }
+    )
+
+
+def _field(data: dict[str, Any], key: str, kind: type | tuple[type, ...], topic: str) -> Any:
+    if key not in data:
+        raise SimProtocolError(f"{topic}: missing field '{key}'")
+    value = data[key]
+    if not isinstance(value, kind) or isinstance(value, bool) and kind is not bool:
+        raise SimProtocolError(f"{topic}: field '{key}' has the wrong type ({type(value).__name__})")
+    return value
+
+
+def _load(text: str, topic: str) -> dict[str, Any]:
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as error:
+        raise SimProtocolError(f"{topic}: not JSON ({error})") from None
+    if not isinstance(data, dict):
+        raise SimProtocolError(f"{topic}: expected a JSON object")
+    return data
+
+
+def decode_simulation_info(text: str) -> SimulationInfo:
+    """Parse a ``/sim/scene`` payload (positions come back as zeros: the executive never has them)."""
+    topic = SCENE_TOPIC
+    data = _load(text, topic)
+    mode = _field(data, "mode", str, topic)
+    if mode not in BRIDGE_MODES:
+        raise SimProtocolError(f"{topic}: field 'mode' must be one of {list(BRIDGE_MODES)}, got {mode!r}")
+    period = float(_field(data, "control_period_s", (int, float), topic))
+    scene_data = _field(data, "scene", dict, topic)
+    objects = []
+    for entry in _field(scene_data, "objects", list, topic):
+        if not isinstance(entry, dict):
+            raise SimProtocolError(f"{topic}: field 'scene.objects' must hold objects")
+        size = [float(v) for v in _field(entry, "size_m", list, topic)]
+        if len(size) != 3:
+            raise SimProtocolError(f"{topic}: field 'size_m' must hold 3 numbers")
+        objects.append(
+            SceneObject(
+                object_id=int(_field(entry, "object_id", int, topic)),
+                name=str(_field(entry, "name", str, topic)),
+                label=str(_field(entry, "label", str, topic)),
+                category=str(_field(entry, "category", str, topic)),
+                shape=_field(entry, "shape", str, topic),
+                position_m=(0.0, 0.0, 0.0),
+                size_m=(size[0], size[1], size[2]),
+                is_obstacle=bool(_field(entry, "is_obstacle", bool, topic)),
+                role=_field(entry, "role", str, topic),
+                aliases=tuple(str(a) for a in _field(entry, "aliases", list, topic)),
+                colour=str(_field(entry, "colour", str, topic)),
+                size=str(_field(entry, "size", str, topic)),
+            )
+        )
+    goal_id = int(_field(scene_data, "goal_object_id", int, topic))
+    if goal_id not in {obj.object_id for obj in objects}:
+        raise SimProtocolError(f"{topic}: 'goal_object_id' {goal_id} names no object")
+    scene = SceneSpec(
+        name=str(_field(scene_data, "name", str, topic)),
+        title=str(_field(scene_data, "title", str, topic)),
+        seed=int(_field(scene_data, "seed", int, topic)),
+        bounds_m=(0.0, 0.0, 0.0, 0.0),
+        objects=tuple(objects),
+        goal_object_id=goal_id,
+        instruction=str(_field(scene_data, "instruction", str, topic)),
+        outdoor=bool(_field(scene_data, "outdoor", bool, topic)),
+    )
+    return SimulationInfo(
+        mode=mode, control_period_s=period, seed=int(_field(data, "seed", int, topic)), scene=scene
+    )
+
+
+@dataclass(frozen=True)
+class CameraRequest:
+    """A lockstep render request: ``full`` (colour, depth, segmentation) or ``depth`` at ``grids`` only."""
+
+    kind: FrameKind
+    grids: tuple[PixelGrid, ...] | None = None
+
+
+def encode_camera_request(request: CameraRequest) -> str:
+    grids = None if request.grids is None else [[g.stride, g.offset] for g in request.grids]
+    return json.dumps({"kind": request.kind, "grids": grids})
+
+
+def decode_camera_request(text: str) -> CameraRequest:
+    topic = CAMERA_REQUEST_TOPIC
+    data = _load(text, topic)
+    kind = _field(data, "kind", str, topic)
+    if kind not in ("full", "depth"):
+        raise SimProtocolError(f"{topic}: field 'kind' must be 'full' or 'depth', got {kind!r}")
+    raw = data.get("grids")
+    if raw is None:
+        return CameraRequest(kind=kind)
+    if not isinstance(raw, list):
+        raise SimProtocolError(f"{topic}: field 'grids' must be a list of [stride, offset]")
+    grids: list[PixelGrid] = []
+    for pair in raw:
+        if not (isinstance(pair, list) and len(pair) == 2 and all(isinstance(v, int) for v in pair)):
+            raise SimProtocolError(f"{topic}: field 'grids' must hold [stride, offset] integer pairs")
+        grids.append(PixelGrid(stride=pair[0], offset=pair[1]))
+    return CameraRequest(kind=kind, grids=tuple(grids))
+
+
+def encode_outcome(outcome: str, found_objects: Sequence[dict[str, Any]]) -> str:
+    """The ``/sim/outcome`` payload."""
+    return json.dumps({"outcome": outcome, "found_objects": list(found_objects)}, default=float)
+
+
+def decode_outcome(text: str) -> tuple[str, list[dict[str, Any]]]:
+    topic = OUTCOME_TOPIC
+    data = _load(text, topic)
+    found = _field(data, "found_objects", list, topic)
+    for entry in found:
+        if not isinstance(entry, dict) or "position_m" not in entry:
+            raise SimProtocolError(f"{topic}: each found object needs 'position_m'")
+    return str(_field(data, "outcome", str, topic)), found
+
+
+__all__ = [
+    "BRIDGE_MODES",
+    "CAMERA_REQUEST_TOPIC",
+    "HEARTBEAT_PERIOD_S",
+    "HEARTBEAT_TOPIC",
+    "OUTCOME_TOPIC",
+    "SCENE_TOPIC",
+    "SEGMENTATION_TOPIC",
+    "STEP_TOPIC",
+    "TIME_TOPIC",
+    "CameraRequest",
+    "SimProtocolError",
+    "SimulationInfo",
+    "decode_camera_request",
+    "decode_outcome",
+    "decode_simulation_info",
+    "encode_camera_request",
+    "encode_outcome",
+    "encode_simulation_info",
+]

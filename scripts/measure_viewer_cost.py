@@ -1,0 +1,128 @@
+"""What the browser view costs a mission: wall time per simulated second with the view off and on.
+
+Runs the README's mission (road, seed 0, lexical relevance; ``--sim-s`` caps the robot time) in fresh
+processes, alternating the configurations ``repeats`` times so that the machine's load falls on all of
+them alike, and prints for each the fastest run's wall and CPU seconds per simulated second (the run
+least disturbed by whatever else the machine does) and the extra share over ``off``:
+
+- ``off``: no recorder, no view (what ``semexp-bt run`` costs);
+- ``record``: ``--record`` (the JSONL tick record alone, for reference);
+- ``view``: ``--view-record DIR`` (tree records, world frames logged to world.rrd by the worker);
+- ``live``: ``--view`` and ``--view-record`` with the page and Rerun's gRPC stream served;
+- ``stalled``: as ``live``, with clients that connect to the page and the stream and never read.
+
+Usage:
+    MUJOCO_GL=egl .venv/bin/python scripts/measure_viewer_cost.py --repeats 3 --sim-s 120
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import socket
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+CONFIGS = ("off", "record", "view", "live", "stalled")
+
+
+def one_run(config: str, sim_s: float, workdir: Path) -> dict[str, float]:
+    """Run the mission once in this process; the figures as a dict (called in a child process)."""
+    import torch
+
+    torch.set_num_threads(1)
+    from semexp_bt.app.episode import EpisodeOptions, run_episode
+    from semexp_bt.app.viewer.observer import ViewObserver, ViewOptions
+
+    stalls: list[socket.socket] = []
+
+    def stall(url: str) -> None:
+        # Clients that ask and never read: a page that froze, a Rerun viewer that stopped pulling.
+        host, port = url.split("//")[1].split("/")[0].split(":")
+        for _ in range(4):
+            client = socket.create_connection((host, int(port)))
+            client.sendall(b"GET /api/ticks?after=0 HTTP/1.1\r\nHost: x\r\n\r\n")
+            stalls.append(client)
+
+    def hold(view: ViewObserver, outcome: str) -> None:
+        for client in stalls:
+            client.close()
+
+    view = None
+    if config in ("view", "live", "stalled"):
+        view = ViewOptions(
+            live=config != "view",
+            record_dir=workdir / "view",
+            announce=stall if config == "stalled" else None,
+            after_mission=hold,
+        )
+    options = EpisodeOptions(
+        mission_path=ROOT / "trees" / "object_search.yaml",
+        scene="road",
+        seed=0,
+        relevance="lexical",
+        max_sim_s=sim_s,
+        record_path=workdir / "ticks.jsonl" if config == "record" else None,
+        view=view,
+    )
+    cpu0, wall0 = time.process_time(), time.perf_counter()
+    record = run_episode(options)
+    wall, cpu = time.perf_counter() - wall0, time.process_time() - cpu0
+    sim = float(record["sim_time_s"])
+    out = {"wall_per_sim_s": wall / sim, "cpu_per_sim_s": cpu / sim, "sim_s": sim, "ticks": record["ticks"],
+           "tick_p50_ms": record["tick_wall_ms"]["median"], "tick_p99_ms": record["tick_wall_ms"]["p99"]}  # fmt: skip
+    manifest = workdir / "view" / "manifest.json"
+    if manifest.is_file():
+        frames = json.loads(manifest.read_text())["frames"]
+        out["frames_dropped"], out["frames_queued"] = frames["dropped"], frames["queued"]
+    return out
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--sim-s", type=float, default=120.0, help="robot time per mission (s)")
+    parser.add_argument("--configs", default=",".join(CONFIGS))
+    parser.add_argument("--child", default=None, help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.child:
+        with tempfile.TemporaryDirectory() as tmp:
+            print(json.dumps(one_run(args.child, args.sim_s, Path(tmp))))
+        return 0
+    configs = args.configs.split(",")
+    results: dict[str, list[dict[str, float]]] = {c: [] for c in configs}
+    env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
+    for repeat in range(args.repeats):
+        for config in configs:
+            answer = subprocess.run(
+                [sys.executable, __file__, "--child", config, "--sim-s", str(args.sim_s)],
+                capture_output=True, text=True, env=env, cwd=ROOT, check=True,
+            )  # fmt: skip
+            results[config].append(json.loads(answer.stdout.strip().splitlines()[-1]))
+            print(f"repeat {repeat} {config}: {results[config][-1]}", file=sys.stderr)
+    base = min(r["wall_per_sim_s"] for r in results[configs[0]])
+    base_cpu = min(r["cpu_per_sim_s"] for r in results[configs[0]])
+    print(
+        f"| config | wall s per sim s | extra wall vs {configs[0]} | CPU s per sim s | extra CPU | tick p99 ms | frames dropped |"
+    )
+    print("| --- | --- | --- | --- | --- | --- | --- |")
+    for config in configs:
+        rows = results[config]
+        wall = min(r["wall_per_sim_s"] for r in rows)
+        cpu = min(r["cpu_per_sim_s"] for r in rows)
+        p99 = statistics.median(r["tick_p99_ms"] for r in rows)
+        dropped = "-" if "frames_dropped" not in rows[0] else f"{max(r['frames_dropped'] for r in rows):.0f}"
+        print(
+            f"| {config} | {wall:.4f} | {100 * (wall / base - 1):+.1f} % | {cpu:.4f} | {100 * (cpu / base_cpu - 1):+.1f} % | {p99:.2f} | {dropped} |"
+        )
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,216 @@
+"""What the tick thread hands the viewer: a :class:`WorldFrame` per tick that has something new to draw.
+
+:class:`FrameCapture` runs on the tick thread, after each tick, and must stay cheap: it compares a few
+blackboard values by identity (a behaviour writes a new object when it has news), copies what the tree
+mutates in place (the memory's nodes when a memory writer has just finished, the map at most once per
+:data:`~semexp_bt.app.viewer.maps.MAP_PERIOD_S`), and reads the robot's pose at :data:`POSE_RATE_HZ`.
+Everything in a frame is immutable or a fresh copy, so the viewer's worker thread may draw it while the
+tree goes on.
+
+It reads the board's storage directly (``py_trees.blackboard.Blackboard.storage``), not through a
+blackboard client: a client read would add to the activity stream that the tick record is made from.
+
+Example:
+    >>> capture = FrameCapture.for_tree(run.tree.root)  # doctest: +SKIP
+    >>> frame = capture.capture(run, visited={"UpdateMemory": "SUCCESS"})  # doctest: +SKIP
+    >>> frame.memory is not None  # UpdateMemory has just finished: the memory's nodes are copied
+    True
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import py_trees
+
+from semexp_bt.app.viewer.maps import MAP_PERIOD_S, MapLayer, map_layer, map_version
+from semexp_bt.core.types import NodeState, Observation, Pose2D, SceneEvidence, Subgoal, Twist
+from trees.registry import default_registry, key_uses
+
+if TYPE_CHECKING:
+    from semexp_bt.app.runner import MissionRun
+
+#: The robot's pose, velocity and command reach the view this often (Hz of robot time): a tenth of the
+#: tick rate is smooth to the eye and keeps the worker thread's share of the interpreter small.
+POSE_RATE_HZ = 10.0
+#: The behaviours that change the topological memory in place (the node types that declare ``memory`` written).
+MEMORY_WRITERS = frozenset(key_uses(default_registry())["memory"].writers)
+#: Statuses after which a memory writer has done its work for this tick.
+_DONE = frozenset({"SUCCESS", "FAILURE"})
+
+
+@dataclass(frozen=True)
+class ModelAnswer:
+    """What the models said about the last perceived frame (they answer a few seconds after it).
+
+    Attributes:
+        detections: the detector's boxes (None: the object-level source is missing).
+        scene_evidence: the VLM's proposals (None: the scene-level source is missing).
+    """
+
+    detections: tuple[Any, ...] | None
+    scene_evidence: SceneEvidence | None
+
+
+@dataclass(frozen=True)
+class MemoryFrame:
+    """The topological memory after a change: its nodes (frozen copies) and edges."""
+
+    nodes: tuple[NodeState, ...]
+    edges: tuple[tuple[int, int], ...]
+
+
+@dataclass(frozen=True)
+class WorldFrame:
+    """What changed in the world at one tick. Fields left None did not change (or are not due).
+
+    Attributes:
+        tick: the tick number (1 for the first tick).
+        stamp_s: the robot clock after the tick.
+        pose: the base pose in ``map``.
+        base_twist: the base velocity (body frame).
+        command: the last commanded twist on the board (``cmd_twist``).
+        observation: a new perceived RGB-D frame (with its camera pose and intrinsics).
+        answer: the models' answer about the last perceived frame.
+        arbitration: a new arbitration result (``semexp_bt.core.evidence.ArbitrationResult``).
+        memory: the memory after a change.
+        decision: a new decision step (the entry ``Decide`` wrote to the decision log: candidates with
+            their Eq. 9 terms and utilities, the selected node, the reason).
+        subgoal_changed: the subgoal on the board is a new one (``subgoal``, possibly None).
+        subgoal: the subgoal on the board when ``subgoal_changed``.
+        plan: a new controller cycle (``semexp_bt.nav.controller.ControlResult``).
+        map: the planner's map, when it changed and a redraw was due.
+        events: mission events logged since the previous frame.
+        outcome: the mission's outcome, on the last frame only.
+    """
+
+    tick: int
+    stamp_s: float
+    pose: Pose2D | None = None
+    base_twist: Twist | None = None
+    command: Twist | None = None
+    observation: Observation | None = None
+    answer: ModelAnswer | None = None
+    arbitration: Any = None
+    memory: MemoryFrame | None = None
+    decision: Mapping[str, Any] | None = None
+    subgoal_changed: bool = False
+    subgoal: Subgoal | None = None
+    plan: Any = None
+    map: MapLayer | None = None
+    events: tuple[Mapping[str, Any], ...] = field(default_factory=tuple)
+    outcome: str | None = None
+
+    def has_news(self) -> bool:
+        """Whether anything besides the tick number is in the frame."""
+        return any(
+            (
+                self.pose is not None,
+                self.observation is not None,
+                self.answer is not None,
+                self.arbitration is not None,
+                self.memory is not None,
+                self.decision is not None,
+                self.subgoal_changed,
+                self.plan is not None,
+                self.map is not None,
+                self.events,
+                self.outcome is not None,
+            )
+        )
+
+
+class FrameCapture:
+    """Builds the :class:`WorldFrame` of each tick on the tick thread (see the module docstring).
+
+    Args:
+        memory_writers: names of the tree's nodes whose type changes the memory in place.
+    """
+
+    def __init__(self, *, memory_writers: frozenset[str] | set[str]) -> None:
+        self.memory_writers = frozenset(memory_writers)
+        self._seen: dict[str, Any] = {}
+        self._decisions = 0
+        self._events = 0
+        self._pose_due_s = -1.0
+        self._map_due_s = -1.0
+        self._map_version: int | None = None
+
+    @classmethod
+    def for_tree(cls, root: py_trees.behaviour.Behaviour) -> FrameCapture:
+        """A capture that knows which of ``root``'s nodes write the memory (by their type)."""
+        writers = {node.name for node in root.iterate() if type(node).__name__ in MEMORY_WRITERS}
+        return cls(memory_writers=writers)
+
+    def _new(self, storage: Mapping[str, Any], key: str) -> tuple[bool, Any]:
+        """Whether the board holds a different object under ``key`` than last time (a key not yet on the
+        board counts as None), and the object."""
+        value = storage.get(key)
+        if value is self._seen.get(key):
+            return False, value
+        self._seen[key] = value
+        return True, value
+
+    def capture(self, run: MissionRun, *, visited: Mapping[str, str], force_pose: bool = False) -> WorldFrame:
+        """The frame of the tick that just ran.
+
+        Args:
+            run: the running mission.
+            visited: the status of every node ticked this tick, by name (the tick record's ``nodes``).
+            force_pose: read the pose even when it is not due (the first and the last frame).
+        """
+        storage = py_trees.blackboard.Blackboard.storage
+        services = run.services
+        now = run.now_s()
+        fields: dict[str, Any] = {}
+        if force_pose or now >= self._pose_due_s:
+            self._pose_due_s = now + 1.0 / POSE_RATE_HZ - 1e-9
+            robot = services.robot
+            fields["pose"] = robot.base_pose()
+            fields["base_twist"] = robot.base_twist()
+            command = storage.get("/cmd_twist")
+            fields["command"] = command if isinstance(command, Twist) else None
+            new_plan, plan = self._new(storage, "/plan")
+            if new_plan and plan is not None:
+                fields["plan"] = plan
+        new_observation, observation = self._new(storage, "/observation")
+        if new_observation and isinstance(observation, Observation):
+            fields["observation"] = observation
+        new_detections, detections = self._new(storage, "/detections")
+        new_evidence, evidence = self._new(storage, "/scene_evidence")
+        if new_detections or new_evidence:
+            fields["answer"] = ModelAnswer(
+                detections=None if detections is None else tuple(detections),
+                scene_evidence=evidence if isinstance(evidence, SceneEvidence) else None,
+            )
+        new_arbitration, arbitration = self._new(storage, "/arbitration")
+        if new_arbitration and arbitration is not None:
+            fields["arbitration"] = arbitration
+        if any(visited.get(name) in _DONE for name in self.memory_writers) or "/memory" not in self._seen:
+            memory = storage.get("/memory")
+            if memory is not None:
+                self._seen["/memory"] = memory
+                fields["memory"] = MemoryFrame(
+                    nodes=tuple(memory.nodes()),
+                    edges=tuple((int(u), int(v)) for u, v in memory.graph.edges()),
+                )
+        if len(services.decision_log) > self._decisions:
+            fields["decision"] = services.decision_log[-1]
+            self._decisions = len(services.decision_log)
+        new_subgoal, subgoal = self._new(storage, "/subgoal")
+        if new_subgoal:
+            fields["subgoal_changed"] = True
+            fields["subgoal"] = subgoal if isinstance(subgoal, Subgoal) else None
+        version = map_version(storage)
+        if version is not None and version != self._map_version and now >= self._map_due_s:
+            layer = map_layer(storage)
+            if layer is not None:
+                fields["map"] = layer
+                self._map_version = version
+                self._map_due_s = now + MAP_PERIOD_S - 1e-9
+        if len(services.events) > self._events:
+            fields["events"] = tuple(services.events[self._events :])
+            self._events = len(services.events)
+        return WorldFrame(tick=run.tick, stamp_s=now, **fields)

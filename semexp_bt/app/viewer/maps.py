@@ -1,0 +1,122 @@
+"""The map the world view draws: one adapter from the navigation stack's costmap to a plain grid.
+
+:func:`map_layer` is the only place the viewer reads a map. It reads the costmap on the board
+(``local_map``, :class:`~semexp_bt.nav.costmap.Costmap`) and the global path planned on it
+(``global_plan``, :class:`~semexp_bt.nav.global_planner.GlobalPlan`), and turns the costmap's Nav2 costs
+into ``nav_msgs/OccupancyGrid`` cell values as Nav2's costmap publisher does (:func:`occupancy_values`):
+the Rerun logging and the MCAP export draw the inflation gradient as well as the obstacles.
+
+It runs on the tick thread, at most once per :data:`MAP_PERIOD_S` of robot time, and returns an immutable
+copy, so the viewer's worker thread never reads a map the planner is writing.
+
+Example:
+    >>> from semexp_bt.nav.costmap import Costmap, CostmapConfig
+    >>> from semexp_bt.nav.footprint import Footprint
+    >>> costmap = Costmap(CostmapConfig(), footprint=Footprint(-0.378, 0.29, 0.15), origin_xy=(0.0, 0.0))
+    >>> map_layer({"/local_map": costmap}) is None  # nothing observed yet: nothing to draw
+    True
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from semexp_bt.nav.costmap import INSCRIBED_COST, LETHAL_COST, NO_INFORMATION_COST, Costmap
+from semexp_bt.nav.global_planner import GlobalPlan
+
+#: Cell values of ``nav_msgs/OccupancyGrid`` (and of Rerun's ``RvizMap`` colour map).
+UNKNOWN_CELL = -1
+FREE_CELL = 0
+OCCUPIED_CELL = 100
+#: The value of a cell where the base centre collides in every heading (Nav2's inscribed cost).
+INSCRIBED_CELL = 99
+#: The view redraws the map at most this often (robot time, s): the costmap changes at 6 Hz, and a 1 Hz
+#: copy of it costs the tick thread well under a millisecond per simulated second.
+MAP_PERIOD_S = 1.0
+#: Unknown cells kept around the observed part of the map (cells), so the drawn map has a border.
+MAP_MARGIN_CELLS = 5
+
+
+@dataclass(frozen=True)
+class MapLayer:
+    """A snapshot of the planner's map, ready to draw.
+
+    Attributes:
+        cells: ``(H, W)`` int8 in ``nav_msgs/OccupancyGrid`` convention (-1 unknown, 0 free, 100 lethal,
+            99 inscribed, 1-98 the inflation cost); row ``i`` is ``y = origin_y + i * res``, column ``j`` is
+            ``x = origin_x + j * res`` (row-major from the lower-left corner, as ROS).
+        origin_xy: world position (``map``) of the outer corner of cell ``(0, 0)``, m.
+        resolution_m: cell side, m.
+        version: changes whenever the map or the path does.
+        path_xy: ``(N, 2)`` the global path planned on this map; None when there is none.
+    """
+
+    cells: npt.NDArray[np.int8]
+    origin_xy: tuple[float, float]
+    resolution_m: float
+    version: int
+    path_xy: npt.NDArray[np.float64] | None = None
+
+
+def occupancy_values(cost: npt.NDArray[np.uint8]) -> npt.NDArray[np.int8]:
+    """Nav2 costs (0-255) as ``OccupancyGrid`` values: 255 -> -1, 254 -> 100, 253 -> 99, 0 -> 0 and the
+    inflation costs 1-252 spread over 1-98 (the translation of Nav2's ``costmap_2d_publisher``)."""
+    c = np.asarray(cost, dtype=np.int32)
+    values = 1 + (97 * (c - 1)) // (INSCRIBED_COST - 2)
+    values = np.where(c == 0, FREE_CELL, values)
+    values = np.where(c == INSCRIBED_COST, INSCRIBED_CELL, values)
+    values = np.where(c == LETHAL_COST, OCCUPIED_CELL, values)
+    values = np.where(c == NO_INFORMATION_COST, UNKNOWN_CELL, values)
+    return values.astype(np.int8)
+
+
+def _plan_of(storage: Mapping[str, Any]) -> GlobalPlan | None:
+    plan = storage.get("/global_plan")
+    return plan if isinstance(plan, GlobalPlan) and plan.ok and len(plan.path_xy) > 1 else None
+
+
+def map_version(storage: Mapping[str, Any]) -> int | None:
+    """A number that changes whenever the map or the path does, or None when the board holds no costmap
+    (cheap: every tick)."""
+    costmap = storage.get("/local_map")
+    if not isinstance(costmap, Costmap):
+        return None
+    plan = _plan_of(storage)
+    return hash((int(costmap.frames), costmap.revision, None if plan is None else plan.stamp_s))
+
+
+def map_layer(storage: Mapping[str, Any]) -> MapLayer | None:
+    """The costmap as a :class:`MapLayer`, cropped to what has been observed, with the global path; None
+    before anything has been observed.
+
+    Args:
+        storage: the blackboard's storage (``py_trees.blackboard.Blackboard.storage``: ``/key`` -> value).
+    """
+    costmap = storage.get("/local_map")
+    if not isinstance(costmap, Costmap):
+        return None
+    rows, cols = np.nonzero(costmap.observed)
+    if rows.size == 0:
+        return None
+    height, width = costmap.shape
+    lo_r = max(int(rows.min()) - MAP_MARGIN_CELLS, 0)
+    hi_r = min(int(rows.max()) + 1 + MAP_MARGIN_CELLS, height)
+    lo_c = max(int(cols.min()) - MAP_MARGIN_CELLS, 0)
+    hi_c = min(int(cols.max()) + 1 + MAP_MARGIN_CELLS, width)
+    window = (slice(lo_r, hi_r), slice(lo_c, hi_c))
+    cells = occupancy_values(costmap.cost(costmap.distance_m[window], costmap.observed[window]))
+    cells[costmap.lethal()[window]] = OCCUPIED_CELL
+    corner = costmap.centre_of(np.array(lo_r), np.array(lo_c)) - 0.5 * costmap.resolution_m
+    plan = _plan_of(storage)
+    return MapLayer(
+        cells=np.ascontiguousarray(cells),
+        origin_xy=(float(corner[0]), float(corner[1])),
+        resolution_m=float(costmap.resolution_m),
+        version=map_version(storage) or 0,
+        path_xy=None if plan is None else np.array(plan.path_xy, dtype=np.float64),
+    )

@@ -1,0 +1,327 @@
+"""The view as a :class:`~semexp_bt.app.runner.TickObserver`: live, saved, or both, never in the way.
+
+:class:`ViewObserver` watches a running mission with the tick recorder it is given
+(:class:`~semexp_bt.app.recorder.TickRecorder`: statuses, per-node time, feedback, blackboard writes).
+On the tick thread it does only cheap things: it hands each tick's record to the page's feed and the
+saved recording, and it puts the tick's :class:`~semexp_bt.app.viewer.frames.WorldFrame` (if the tick
+changed anything worth drawing) into a bounded queue. A worker thread takes the frames from the queue
+and logs them to Rerun. When the queue is full the frame is dropped and counted, and the tick goes on:
+a slow browser, a slow disk or a busy core cost the view frames, never the tree ticks. The tick
+records themselves are small and are never dropped.
+
+With ``record_dir`` the view is saved (``semexp_bt.app.viewer.recording``); with ``live`` it is served
+(``semexp_bt.app.viewer.tree_page``, the world through Rerun's gRPC server). The mission itself is
+unchanged by either: the observer reads the board and the robot, and writes nothing the tree reads.
+
+Example:
+    >>> recorder = TickRecorder(path=None, display=False)  # doctest: +SKIP
+    >>> view = ViewObserver(ViewOptions(record_dir=Path("runs/view")), recorder=recorder)  # doctest: +SKIP
+    >>> run_mission(..., observers=[recorder, view])  # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import queue
+import sys
+import threading
+import time
+import uuid
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Protocol
+
+from semexp_bt.app.recorder import TickRecorder
+from semexp_bt.app.viewer.frames import FrameCapture, WorldFrame
+from semexp_bt.app.viewer.recording import RecordingWriter
+from semexp_bt.app.viewer.tree_page import TickFeed, ViewServer, rerun_assets_dir, tree_structure
+
+if TYPE_CHECKING:
+    from semexp_bt.app.runner import MissionRun
+
+#: World frames buffered between the tick thread and the worker before frames are dropped. A mission
+#: makes about 15 frames per simulated second; 512 is half a minute of a worker that stopped.
+QUEUE_FRAMES = 512
+#: How long ``finish`` waits for the worker to log what is queued (wall seconds).
+DRAIN_TIMEOUT_S = 120.0
+
+
+class ViewerUnavailableError(RuntimeError):
+    """The view was asked for, but the ``viewer`` extra (Rerun) is not installed."""
+
+
+class FrameSink(Protocol):
+    """Where the worker thread sends frames (:class:`~semexp_bt.app.viewer.world.WorldLogger`)."""
+
+    def log(self, frame: WorldFrame) -> None: ...
+
+    def close(self) -> None: ...
+
+    def disconnect(self) -> None: ...
+
+
+@dataclass(frozen=True)
+class ViewOptions:
+    """What to do with the view of a mission.
+
+    Attributes:
+        live: serve the live view (the tree page and Rerun's gRPC stream) on the loopback interface.
+        record_dir: save the view here (``semexp-bt view DIR`` replays it), or None.
+        world: log the world through Rerun (needs the ``viewer`` extra); without it the view is the tree.
+        host: the interface the page is served on.
+        port: the page's port (0: a free one).
+        grpc_port: the Rerun stream's port in live mode (0: a free one).
+        open_browser: open the live page in the user's browser.
+        queue_frames: world frames buffered before frames are dropped.
+        title: a line that names the mission (scene, seed, instruction).
+        mission: what the manifest records about the mission (scene, seed, strategy, ...).
+        announce: called with the page's URL once it is served (the CLI prints it).
+        after_mission: live only: called with the observer and the outcome when the mission has ended,
+            before the page and the stream close (the CLI keeps them open there until Ctrl-C).
+    """
+
+    live: bool = False
+    record_dir: Path | None = None
+    world: bool = True
+    host: str = "127.0.0.1"
+    port: int = 0
+    grpc_port: int = 0
+    open_browser: bool = False
+    queue_frames: int = QUEUE_FRAMES
+    title: str = ""
+    mission: Mapping[str, Any] = field(default_factory=dict)
+    announce: Callable[[str], None] | None = None
+    after_mission: Callable[[ViewObserver, str], None] | None = None
+
+
+def require_world_view() -> None:
+    """Raise :class:`ViewerUnavailableError` unless Rerun and its web viewer are installed."""
+    import importlib.util
+
+    if importlib.util.find_spec("rerun") is None or rerun_assets_dir() is None:
+        raise ViewerUnavailableError(
+            "the world view needs the viewer extra (Rerun and its web viewer): pip install -e '.[viewer]'"
+        )
+
+
+class ViewObserver:
+    """A :class:`~semexp_bt.app.runner.TickObserver` that serves and/or saves the mission's view.
+
+    Args:
+        options: live, saved, or both (see :class:`ViewOptions`).
+        recorder: the mission's tick recorder; the view takes its records (it must be an observer of the
+            same mission, listed before this one).
+        sink_factory: builds the world's frame sink from ``(recording_id, run, world_file, grpc_port,
+            cors_origin)``; the default logs to Rerun. Tests pass a slow one.
+
+    Raises:
+        ValueError: when neither ``live`` nor ``record_dir`` is asked for.
+        ViewerUnavailableError: when the world view is asked for without the ``viewer`` extra.
+    """
+
+    wants_activity_stream = True
+
+    def __init__(
+        self,
+        options: ViewOptions,
+        *,
+        recorder: TickRecorder,
+        sink_factory: Callable[..., FrameSink] | None = None,
+    ) -> None:
+        if not options.live and options.record_dir is None:
+            raise ValueError("a view needs live=True, a record_dir, or both")
+        if options.world and sink_factory is None:
+            require_world_view()
+        self.options = options
+        self.recorder = recorder
+        self.sink_factory = sink_factory or _rerun_sink
+        recorder.listen(self._on_tick_record)
+        self.recording_id = uuid.uuid4().hex
+        self.writer = RecordingWriter(options.record_dir) if options.record_dir is not None else None
+        self.feed: TickFeed | None = None
+        self.server: ViewServer | None = None
+        self.sink: FrameSink | None = None
+        self.capture: FrameCapture | None = None
+        self.frames_queued = 0
+        self.frames_dropped = 0
+        self.frames_logged = 0
+        self.worker_errors: list[str] = []
+        self.capture_s = 0.0
+        self._queue: queue.Queue[WorldFrame | None] = queue.Queue(maxsize=max(1, options.queue_frames))
+        self._worker: threading.Thread | None = None
+        self._world_file: Path | None = None
+
+    @property
+    def url(self) -> str | None:
+        """The live page's URL (None before ``start`` or without ``live``)."""
+        return None if self.server is None else self.server.url
+
+    # ------------------------------------------------------------------ TickObserver
+    def start(self, run: MissionRun) -> None:
+        """Open the recording, serve the page, start the world logger and its worker."""
+        options = self.options
+        structure = tree_structure(run.tree.root)
+        title = options.title or f"{run.tree.root.name}: {run.board.instruction}"
+        world_file = self.writer.world_path if self.writer is not None and options.world else None
+        self._world_file = world_file
+        if self.writer is not None:
+            self.writer.start(
+                manifest={
+                    "recording_id": self.recording_id,
+                    "title": title,
+                    "mission": {**options.mission, "instruction": run.board.instruction},
+                    "world": world_file.name if world_file is not None else None,
+                    "timelines": {"tick": "sequence", "sim_time": "duration_s"},
+                    "started_unix_s": round(time.time(), 3),
+                },
+                tree=structure,
+            )
+        if options.live:
+            self.feed = TickFeed({"mode": "live", "title": title, "tree": structure, "world": None})
+            self.server = ViewServer(self.feed, host=options.host, port=options.port)
+        if options.world:
+            self.sink = self.sink_factory(
+                recording_id=self.recording_id,
+                run=run,
+                world_file=world_file,
+                grpc_port=options.grpc_port if options.live else None,
+                cors_origin=self.server.origin if self.server is not None else None,
+            )
+            grpc_url = getattr(self.sink, "grpc_url", None)
+            if self.feed is not None and grpc_url:
+                self.feed.update_session(world={"kind": "grpc", "url": grpc_url})
+            self._worker = threading.Thread(target=self._work, name="semexp-view-world", daemon=True)
+            self._worker.start()
+        self.capture = FrameCapture.for_tree(run.tree.root)
+        self._enqueue(self.capture.capture(run, visited={}, force_pose=True))
+        if self.server is not None:
+            if options.announce is not None:
+                options.announce(self.server.url)
+            if options.open_browser:
+                self.server.open_browser()
+
+    def _on_tick_record(self, tick: int, line: str) -> None:
+        if self.writer is not None:
+            self.writer.write_tick(line)
+        if self.feed is not None:
+            self.feed.append(tick, line)
+
+    def after_tick(self, run: MissionRun) -> None:
+        """Queue the tick's world frame (or drop it when the worker is behind)."""
+        if self.capture is None or self.sink is None:
+            return
+        t0 = time.perf_counter()
+        frame = self.capture.capture(run, visited=self.recorder.visited_statuses())
+        if frame.has_news():
+            self._enqueue(frame)
+        self.capture_s += time.perf_counter() - t0
+
+    def finish(self, run: MissionRun, outcome: str) -> None:
+        """Log the last frame, wait for the worker, complete the recording; then (live) hand over to
+        ``after_mission`` and close."""
+        if self.capture is not None and self.sink is not None:
+            last = self.capture.capture(run, visited={}, force_pose=True)
+            self._enqueue(dataclasses.replace(last, outcome=outcome), wait_s=DRAIN_TIMEOUT_S)
+        self._stop_worker()
+        if self.sink is not None:
+            try:
+                self.sink.close()
+            except Exception as exc:
+                self.worker_errors.append(f"closing the world recording: {exc}")
+        summary = {
+            "outcome": outcome,
+            "ticks": run.tick,
+            "sim_time_s": round(run.now_s(), 4),
+            "frames": {
+                "queued": self.frames_queued,
+                "logged": self.frames_logged,
+                "dropped": self.frames_dropped,
+            },
+            "worker_errors": self.worker_errors[:10],
+            "world": self._world_file.name
+            if self._world_file is not None and self._world_file.is_file()
+            else None,
+        }
+        if self.writer is not None:
+            self.writer.finish(**summary)
+        if self.feed is not None:
+            self.feed.finish(outcome=outcome)
+        if self.frames_dropped or self.worker_errors:
+            print(
+                f"view: {self.frames_dropped} of {self.frames_queued} world frames dropped"
+                + (f"; first worker error: {self.worker_errors[0]}" if self.worker_errors else ""),
+                file=sys.stderr,
+            )
+        try:
+            if self.options.live and self.options.after_mission is not None:
+                self.options.after_mission(self, outcome)
+        finally:
+            self.close()
+
+    def close(self) -> None:
+        """Stop serving the page and the Rerun stream."""
+        if self.server is not None:
+            self.server.close()
+            self.server = None
+        if self.sink is not None:
+            try:
+                self.sink.disconnect()
+            finally:
+                self.sink = None
+
+    # ------------------------------------------------------------------ the worker
+    def _enqueue(self, frame: WorldFrame, *, wait_s: float = 0.0) -> None:
+        if self.sink is None:
+            return
+        self.frames_queued += 1
+        try:
+            if wait_s > 0.0:
+                self._queue.put(frame, timeout=wait_s)
+            else:
+                self._queue.put_nowait(frame)
+        except queue.Full:
+            self.frames_dropped += 1
+
+    def _work(self) -> None:
+        sink = self.sink
+        assert sink is not None  # the worker starts after the sink
+        while True:
+            frame = self._queue.get()
+            if frame is None:
+                return
+            try:
+                sink.log(frame)
+                self.frames_logged += 1
+            except Exception as exc:
+                if len(self.worker_errors) < 10:
+                    self.worker_errors.append(f"tick {frame.tick}: {type(exc).__name__}: {exc}")
+
+    def _stop_worker(self) -> None:
+        if self._worker is None:
+            return
+        try:
+            self._queue.put(None, timeout=DRAIN_TIMEOUT_S)
+        except queue.Full:
+            self.worker_errors.append("the world logger did not drain its queue; the recording is incomplete")
+        self._worker.join(timeout=DRAIN_TIMEOUT_S)
+        self._worker = None
+
+
+def _rerun_sink(
+    *,
+    recording_id: str,
+    run: MissionRun,
+    world_file: Path | None,
+    grpc_port: int | None,
+    cors_origin: str | None,
+) -> FrameSink:
+    from semexp_bt.app.viewer.world import WorldLogger
+
+    return WorldLogger(
+        recording_id=recording_id,
+        decision_config=run.services.config.decision,
+        file_path=world_file,
+        grpc_port=grpc_port,
+        cors_origin=cors_origin,
+    )

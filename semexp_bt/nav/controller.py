@@ -1,0 +1,194 @@
+"""What every path-following controller shares: the protocol, the oriented-footprint check, rollouts.
+
+A controller turns the global plan, the costmap and the robot's pose and velocity into one twist per
+cycle (12 Hz). Two are implemented and were compared by measurement (``docs/planner.md``):
+:class:`~semexp_bt.nav.dwb.DwbController` (Nav2 DWB-style trajectory sampling) and
+:class:`~semexp_bt.nav.pure_pursuit.RegulatedPurePursuit` (Nav2's regulated pure pursuit). Both obey the
+same safety rules, stated and checked here:
+
+- **The oriented footprint, at every sampled state.** A state's clearance is the distance from the
+  Go1's rectangle to the nearest lethal cell, from the costmap's distance field at the centres of
+  discs that cover the rectangle (:attr:`Footprint.covering_discs`), minus the disc radius. A motion
+  whose states come closer than ``min_clearance_m`` is never commanded; a robot that already stands
+  closer (it was pushed, or the map just learnt of an obstacle) may only move so that its clearance
+  does not shrink.
+- **Unseen space only within an allowance**: a forward motion may carry the base centre through at most
+  ``unknown_allowance_m`` of never-observed cells (the camera cannot see the floor right in front of the
+  head; after a turn that band is unknown).
+- **Backing up only onto known free cells**: every disc of every state of a backward motion must lie on
+  observed cells (the camera does not look back; the footprint's own trail is known free).
+- **Speed regulated by clearance**: below ``slow_clearance_m`` the speed is scaled down linearly to
+  ``creep_fraction`` at ``min_clearance_m``, with the yaw rate, so the motion stays on the checked arc.
+- **Within what the gait tracks**: |v| <= 1 m/s forward, 0.5 m/s back, |omega| <= 1 rad/s (docs/gait.md),
+  and accelerations within the kinematic base's limits, so the rollouts are what the base will do.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Literal, Protocol, runtime_checkable
+
+import numpy as np
+import numpy.typing as npt
+
+from semexp_bt.core.types import FloatArray, Pose2D, Twist
+from semexp_bt.nav.costmap import Costmap
+from semexp_bt.nav.global_planner import GlobalPlan
+
+ControlStatus = Literal["tracking", "rotating", "blocked", "arrived"]
+"""``tracking`` the path; ``rotating`` in place toward it; ``blocked``: no admissible motion (zero
+twist); ``arrived`` at the path's end (zero twist)."""
+
+
+@dataclass(frozen=True)
+class MotionLimits:
+    """Command and acceleration limits (the Go1 gait's tracking envelope and the base's acceleration)."""
+
+    max_speed_mps: float = 0.8
+    max_reverse_mps: float = 0.3
+    max_yaw_rate_radps: float = 1.0
+    accel_mps2: float = 2.0
+    yaw_accel_radps2: float = 4.0
+
+
+@dataclass(frozen=True)
+class SafetyRules:
+    """The rules every controller obeys (see the module docstring)."""
+
+    min_clearance_m: float = 0.13
+    """Least clearance of the footprint to a lethal cell: OASR's 0.1 m plus the cell quantisation."""
+    slow_clearance_m: float = 0.45
+    """Full speed needs this much clearance; slower below it."""
+    creep_fraction: float = 0.35
+    """Speed fraction at ``min_clearance_m``."""
+    unknown_allowance_m: float = 0.6
+    """Travel of the base centre through never-observed cells allowed per trajectory."""
+
+
+@dataclass
+class ControlResult:
+    """One controller cycle.
+
+    Attributes:
+        twist: the command.
+        status: see :data:`ControlStatus`.
+        clearance_m: the least footprint clearance along the commanded trajectory (inf when far from all).
+        trajectory: ``(T, 3)`` the commanded trajectory's states (x, y, yaw), for display.
+        scores: the chosen trajectory's critic terms.
+        candidates: how many trajectories were sampled, and how many were admissible.
+    """
+
+    twist: Twist
+    status: ControlStatus
+    clearance_m: float = math.inf
+    trajectory: FloatArray = field(default_factory=lambda: np.zeros((0, 3)))
+    scores: dict[str, float] = field(default_factory=dict)
+    candidates: tuple[int, int] = (0, 0)
+
+
+@runtime_checkable
+class PathController(Protocol):
+    """A controller: (plan, costmap, pose, velocity) -> twist."""
+
+    name: str
+
+    def reset(self) -> None:
+        """Forget per-path state (a new subgoal)."""
+
+    def compute(
+        self, *, plan: GlobalPlan, costmap: Costmap, pose: Pose2D, velocity: Twist, stamp_s: float
+    ) -> ControlResult:
+        """The command for this cycle."""
+        ...
+
+
+def footprint_clearance(costmap: Costmap, x: FloatArray, y: FloatArray, yaw: FloatArray) -> FloatArray:
+    """Clearance (m) of the footprint to the nearest lethal cell at every pose (arrays of one shape)."""
+    centres, radius = costmap.footprint.covering_discs
+    c, s = np.cos(yaw)[..., None], np.sin(yaw)[..., None]
+    px = x[..., None] + c * centres[:, 0] - s * centres[:, 1]
+    py = y[..., None] + s * centres[:, 0] + c * centres[:, 1]
+    d = costmap.distance_at(np.stack([px, py], axis=-1))
+    return d.min(axis=-1) - radius
+
+
+def discs_known(costmap: Costmap, x: FloatArray, y: FloatArray, yaw: FloatArray) -> npt.NDArray[np.bool_]:
+    """Whether every covering disc centre of the footprint lies on observed cells, at every pose."""
+    centres, _ = costmap.footprint.covering_discs
+    c, s = np.cos(yaw)[..., None], np.sin(yaw)[..., None]
+    px = x[..., None] + c * centres[:, 0] - s * centres[:, 1]
+    py = y[..., None] + s * centres[:, 0] + c * centres[:, 1]
+    return np.asarray(costmap.known_at(np.stack([px, py], axis=-1)).all(axis=-1))
+
+
+def rollout(
+    pose: Pose2D, velocity: Twist, targets: FloatArray, *, limits: MotionLimits, horizon_s: float, dt_s: float
+) -> tuple[FloatArray, FloatArray]:
+    """States of ``K`` constant target twists ``(K, 2)`` (v, omega) from the current velocity, ramped at the
+    acceleration limits: ``(K, T, 3)`` (x, y, yaw) after each ``dt_s`` up to ``horizon_s``, and the
+    commanded (v, omega) at each step ``(K, T, 2)``."""
+    steps = max(1, int(round(horizon_s / dt_s)))
+    t = dt_s * np.arange(1, steps + 1)
+    v0, w0 = velocity.linear_x_mps, velocity.angular_z_radps
+    dv = targets[:, 0:1] - v0
+    dw = targets[:, 1:2] - w0
+    v = v0 + np.sign(dv) * np.minimum(np.abs(dv), limits.accel_mps2 * t)
+    w = w0 + np.sign(dw) * np.minimum(np.abs(dw), limits.yaw_accel_radps2 * t)
+    yaw = pose.yaw_rad + np.cumsum(w * dt_s, axis=1)
+    mid = yaw - 0.5 * w * dt_s
+    x = pose.x_m + np.cumsum(v * np.cos(mid) * dt_s, axis=1)
+    y = pose.y_m + np.cumsum(v * np.sin(mid) * dt_s, axis=1)
+    return np.stack([x, y, yaw], axis=-1), np.stack([v, w], axis=-1)
+
+
+def admissible(
+    costmap: Costmap, pose: Pose2D, states: FloatArray, commands: FloatArray, *, rules: SafetyRules
+) -> tuple[FloatArray, FloatArray]:
+    """The safety rules on rollouts ``(K, T, 3)``: a ``(K,)`` mask of admissible trajectories and their least
+    clearance ``(K,)``."""
+    x, y, yaw = states[..., 0], states[..., 1], states[..., 2]
+    clearance = footprint_clearance(costmap, x, y, yaw)
+    least = clearance.min(axis=1)
+    now = float(
+        footprint_clearance(costmap, np.array([pose.x_m]), np.array([pose.y_m]), np.array([pose.yaw_rad]))[0]
+    )
+    if now >= rules.min_clearance_m:
+        ok = least >= rules.min_clearance_m
+    else:  # inside the margin already: never closer than now, and never closer step by step
+        running = np.minimum.accumulate(
+            np.concatenate([np.full((len(states), 1), now), clearance], axis=1), axis=1
+        )
+        ok = (clearance >= running[:, :-1] - 1e-4).all(axis=1) | (least >= rules.min_clearance_m)
+    # Unseen space: travel of the base centre through unknown cells, forward motion.
+    step = np.hypot(np.diff(np.concatenate([np.full((len(states), 1), pose.x_m), x], axis=1), axis=1),
+                    np.diff(np.concatenate([np.full((len(states), 1), pose.y_m), y], axis=1), axis=1))  # fmt: skip
+    unknown = ~costmap.known_at(np.stack([x, y], axis=-1))
+    ok &= (step * unknown).sum(axis=1) <= rules.unknown_allowance_m
+    backward = (commands[..., 0] < -1e-3).any(axis=1)
+    if backward.any():
+        known = discs_known(costmap, x[backward], y[backward], yaw[backward]).all(axis=1)
+        ok[np.flatnonzero(backward)[~known]] = False
+    return ok, least
+
+
+def regulate(v: float, w: float, clearance_m: float, *, rules: SafetyRules) -> tuple[float, float]:
+    """Scale (v, omega) together by the clearance (the motion stays on the checked arc)."""
+    if not math.isfinite(clearance_m) or clearance_m >= rules.slow_clearance_m or abs(v) < 1e-6:
+        return v, w
+    span = max(rules.slow_clearance_m - rules.min_clearance_m, 1e-6)
+    fraction = (
+        rules.creep_fraction
+        + (1.0 - rules.creep_fraction) * max(0.0, clearance_m - rules.min_clearance_m) / span
+    )
+    fraction = min(1.0, fraction)
+    return v * fraction, w * fraction
+
+
+def path_progress_index(path: FloatArray, xy: FloatArray, previous: int, window: int = 40) -> int:
+    """Index of the path point nearest ``xy``, searched from ``previous`` a little way on (never back)."""
+    hi = min(len(path), previous + window)
+    seg = path[previous:hi]
+    if len(seg) == 0:
+        return max(0, len(path) - 1)
+    return previous + int(np.argmin(np.hypot(seg[:, 0] - xy[0], seg[:, 1] - xy[1])))

@@ -1,0 +1,527 @@
+"""The MuJoCo world on ROS 2: a node that publishes what the Go1 driver and realsense-ros publish.
+
+``semexp-bt sim-bridge --scene S --seed N`` runs one simulated episode's world (the scene, the sampled
+start, :class:`robots.mujoco_backend.MujocoRobot`) and speaks the robot profile's topics
+(``robots/go1/ros2.yaml``): it obeys ``/cmd_vel`` with the driver's 0.4 s timeout and publishes
+``/odom``, ``/imu``, ``/joint_states``, the colour and aligned depth images with their camera info, and
+``/clock``. What only a simulation has travels on ``/sim/...`` (``robots/ros2_sim_protocol.py``): the
+scene's catalogue for the executive's perception emulator, the segmentation, and in lockstep the step and
+render requests. The ground truth stays here: when the executive reports the mission's end on
+``/sim/outcome`` (or on SIGINT/SIGTERM) the bridge scores the episode (``sims.episode_scoring``, the
+in-process definitions) and writes it to ``--json``.
+
+Two modes:
+
+- ``lockstep`` (default; the end-to-end tests): the world moves only when the executive sends
+  ``/sim/step`` (one 20 ms control period per tick, carrying the tick's twist), and renders the camera when
+  the executive asks on ``/sim/camera/request`` (a full frame for perception, depth at the planner's and
+  the map's pixel grids otherwise), exactly as the in-process backend renders inside a tick. The mission
+  therefore sees the same world at the same instants as in-process, whatever the load on the machine.
+- ``realtime``: the world runs on the wall clock at the control rate like a robot, applies the latest
+  ``/cmd_vel`` (zeroed 0.4 s after the last one), and publishes camera frames at ``camera_hz``. Rendering
+  costs tens of milliseconds on a software rasteriser, so simulated time may run slower than the wall;
+  ``/clock`` is the authority either way.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from robots.camera import CameraConfig
+from robots.go1 import TRUNK_BODY_NAME, load_go1_spec
+from robots.interface import Fidelity, Robot
+from robots.mujoco_backend import MujocoRobot
+from robots.ros2_backend import SIM_LATCHED_QOS, SIM_QOS, import_rclpy, qos_profile, ros_context
+from robots.ros2_messages import (
+    MessageError,
+    fill_camera_info,
+    fill_depth_image,
+    fill_imu,
+    fill_joint_state,
+    fill_odometry,
+    fill_rgb_image,
+    fill_segmentation_image,
+    fill_stamp,
+    stamp_to_ns,
+    twist_from_msg,
+)
+from robots.ros2_profile import Ros2Profile, load_ros2_profile
+from robots.ros2_sim_protocol import (
+    CAMERA_REQUEST_TOPIC,
+    HEARTBEAT_PERIOD_S,
+    HEARTBEAT_TOPIC,
+    OUTCOME_TOPIC,
+    SCENE_TOPIC,
+    SEGMENTATION_TOPIC,
+    STEP_TOPIC,
+    TIME_TOPIC,
+    BridgeMode,
+    CameraRequest,
+    decode_camera_request,
+    decode_outcome,
+    encode_simulation_info,
+)
+from semexp_bt.core.metrics import DEFAULT_CLEARANCE_M, DEFAULT_SUCCESS_RADIUS_M
+from semexp_bt.core.types import InvalidInputError, Observation, Twist
+from sims.catalogue import build_scene
+from sims.episode_scoring import score_episode
+from sims.episodes import sample_episode
+from sims.geodesic import GeodesicOracle
+
+#: The world's control period (s): one step, the executive's tick.
+CONTROL_PERIOD_S = 0.02
+#: Lockstep: with no step for this long (s, wall), the bridge republishes the current state (so a late
+#: executive finds it, and a lost best-effort /clock is made good).
+HEARTBEAT_S = 0.25
+#: IMU and joint states go out every this many control steps (10 Hz): nothing in the tree reads them
+#: faster, and each message costs both processes more than a kinematic step does (docs/ros2.md).
+PROPRIOCEPTION_EVERY = 5
+#: The streams a test may silence (``--silence STREAM=T``): the profile's sensor topics.
+SILENCEABLE: tuple[str, ...] = (
+    "odom",
+    "imu",
+    "joint_states",
+    "color_image",
+    "color_info",
+    "depth_image",
+    "clock",
+)
+
+
+@dataclass
+class BridgeOptions:
+    """One bridged episode.
+
+    Attributes:
+        scene: scene name (``semexp-bt scene list``).
+        seed: seeds the layout, the start pose and the IMU noise (as ``semexp-bt run --seed``).
+        fidelity: ``kinematic`` or ``dynamic`` (the shipped gait policy realises ``/cmd_vel`` then, as the
+            Go1's own controller does).
+        mode: ``lockstep`` or ``realtime`` (module docstring).
+        profile_path: the robot profile (topics, frames, QoS, camera mount); the Go1's when None.
+        result_path: where the episode's scoring goes (JSON).
+        camera_hz: realtime mode: camera frames per simulated second.
+        silence: fault injection for tests: stream key -> simulated time (s) after which it is no longer
+            published.
+        success_radius_m: r_s.
+        clearance_m: the clearance threshold for OASR.
+        max_sim_s: the bridge ends the episode at this simulated time.
+        max_wall_s: the bridge ends after this much wall time (None: never).
+    """
+
+    scene: str
+    seed: int
+    fidelity: Fidelity = "kinematic"
+    mode: BridgeMode = "lockstep"
+    profile_path: Path | None = None
+    result_path: Path | None = None
+    camera_hz: float = 15.0
+    silence: Mapping[str, float] = field(default_factory=dict)
+    success_radius_m: float = DEFAULT_SUCCESS_RADIUS_M
+    clearance_m: float = DEFAULT_CLEARANCE_M
+    max_sim_s: float = 900.0
+    max_wall_s: float | None = None
+
+    def __post_init__(self) -> None:
+        unknown = sorted(set(self.silence) - set(SILENCEABLE))
+        if unknown:
+            raise InvalidInputError(f"cannot silence {unknown}; streams: {', '.join(SILENCEABLE)}")
+        if not (math.isfinite(self.camera_hz) and 0.0 < self.camera_hz <= 1.0 / CONTROL_PERIOD_S):
+            raise InvalidInputError(
+                f"camera_hz must lie in (0, {1.0 / CONTROL_PERIOD_S:g}], got {self.camera_hz}"
+            )
+
+
+def camera_config_for(profile: Ros2Profile) -> CameraConfig:
+    """The simulated head camera mounted where the profile says (the simulated camera pitches only)."""
+    mount = profile.camera.mount
+    if mount.roll_rad != 0.0 or mount.yaw_rad != 0.0:
+        raise InvalidInputError(
+            f"{profile.source}: the simulated camera can pitch only; 'camera.mount.roll_rad' and "
+            "'camera.mount.yaw_rad' must be 0"
+        )
+    return CameraConfig(
+        mount_position_m=(mount.x_m, mount.y_m, mount.z_m), mount_pitch_down_deg=math.degrees(mount.pitch_rad)
+    )
+
+
+class SimBridge:
+    """The bridged world (see the module docstring). Build it, :meth:`run` it, read the result."""
+
+    def __init__(self, options: BridgeOptions) -> None:
+        self.options = options
+        self.profile = load_ros2_profile(options.profile_path)
+        self.scene = build_scene(options.scene, seed=options.seed)
+        self.oracle = GeodesicOracle(self.scene)
+        self.episode = sample_episode(self.scene, seed=options.seed, oracle=self.oracle)
+        self.robot = MujocoRobot(
+            scene=self.scene,
+            fidelity=options.fidelity,
+            start_pose=self.episode.start,
+            seed=options.seed,
+            camera=camera_config_for(self.profile),
+            control_dt_s=CONTROL_PERIOD_S,
+        )
+        self._gait: Callable[[Robot, Twist], None] | None = None
+        if options.fidelity == "dynamic":
+            from robots.gait_policy import make_gait_controller
+
+            self._gait = make_gait_controller()
+        self._trunk = mujoco.mj_name2id(self.robot.model, mujoco.mjtObj.mjOBJ_BODY, TRUNK_BODY_NAME)
+        self._joint_names = load_go1_spec().joint_names
+        self._period_ns = int(round(CONTROL_PERIOD_S * 1e9))
+        self._steps = 0
+        self._positions = [self.robot.base_pose().position()]
+        self._cmd_twist = Twist.zero()
+        self._cmd_arrived_s: float | None = None
+        self._cmd_arrived_ns = 0
+        self._cmd_count = 0
+        self._timeouts: list[dict[str, float]] = []
+        self._timed_out = False
+        self._last_step_wall_s = time.monotonic()
+        self._outcome: tuple[str, list[dict[str, Any]]] | None = None
+        self._stop_reason: str | None = None
+        self._errors: list[str] = []
+        self._frames_published = 0
+        self._frame_log: list[tuple[int, float]] = []
+        self._setup_ros()
+
+    # ------------------------------------------------------------------ ROS
+
+    def _setup_ros(self) -> None:
+        rclpy = import_rclpy()
+        from geometry_msgs.msg import Twist as TwistMsg
+        from geometry_msgs.msg import TwistStamped
+        from nav_msgs.msg import Odometry
+        from rosgraph_msgs.msg import Clock
+        from sensor_msgs.msg import CameraInfo, Image, Imu, JointState
+        from std_msgs.msg import Float64, Header, String
+
+        self._types = {
+            "odom": Odometry,
+            "imu": Imu,
+            "joint_states": JointState,
+            "clock": Clock,
+            "color_image": Image,
+            "depth_image": Image,
+            "color_info": CameraInfo,
+            "segmentation": Image,
+        }
+        self._rclpy = rclpy
+        self._context = ros_context(rclpy)
+        self.node = rclpy.create_node(
+            "semexp_sim_bridge", context=self._context, start_parameter_services=False
+        )
+        topics, qos = self.profile.topics, self.profile.qos
+        self._pubs: dict[str, Any] = {
+            stream: self.node.create_publisher(
+                self._types[stream], getattr(topics, stream), qos_profile(getattr(qos, stream))
+            )
+            for stream in ("odom", "imu", "joint_states", "clock", "color_image", "depth_image", "color_info")
+        }
+        self._pubs["segmentation"] = self.node.create_publisher(
+            Image, SEGMENTATION_TOPIC, qos_profile(SIM_QOS)
+        )
+        self._pubs["sim_time"] = self.node.create_publisher(Float64, TIME_TOPIC, qos_profile(SIM_QOS))
+        self._types["sim_time"] = Float64
+        # The per-step messages are built once and refilled (publish copies them): building an Odometry
+        # in Python costs more than a kinematic step.
+        self._reused = {name: self._types[name]() for name in ("odom", "sim_time", "clock")}
+        scene_pub = self.node.create_publisher(String, SCENE_TOPIC, qos_profile(SIM_LATCHED_QOS))
+        self.node.create_subscription(TwistMsg, topics.cmd_vel, self._on_cmd_vel, qos_profile(qos.cmd_vel))
+        self.node.create_subscription(String, OUTCOME_TOPIC, self._on_outcome, qos_profile(SIM_LATCHED_QOS))
+        if self.options.mode == "lockstep":
+            self.node.create_subscription(TwistStamped, STEP_TOPIC, self._on_step, qos_profile(SIM_QOS))
+            self.node.create_subscription(
+                String, CAMERA_REQUEST_TOPIC, self._on_camera_request, qos_profile(SIM_QOS)
+            )
+        announcement = String()
+        announcement.data = encode_simulation_info(
+            self.scene, mode=self.options.mode, control_period_s=CONTROL_PERIOD_S, seed=self.options.seed
+        )
+        scene_pub.publish(announcement)
+        self._scene_pub = scene_pub  # latched: keep the publisher alive
+        self._heartbeat_pub = self.node.create_publisher(Header, HEARTBEAT_TOPIC, qos_profile(SIM_QOS))
+        self._heartbeat_stop = threading.Event()
+        self._heartbeat = threading.Thread(
+            target=self._beat, args=(Header,), name="sim-heartbeat", daemon=True
+        )
+        from rclpy.executors import SingleThreadedExecutor
+
+        self._executor = SingleThreadedExecutor(context=self._context)
+        self._executor.add_node(self.node)
+
+    def _beat(self, header_type: type) -> None:
+        """Say "alive" every HEARTBEAT_PERIOD_S from a thread of its own, busy main loop or not."""
+        beat = header_type()
+        while not self._heartbeat_stop.wait(HEARTBEAT_PERIOD_S):
+            self._heartbeat_pub.publish(beat)
+
+    def _now_ns(self) -> int:
+        return self._steps * self._period_ns
+
+    def _silenced(self, stream: str) -> bool:
+        after = self.options.silence.get(stream)
+        return after is not None and self._now_ns() * 1e-9 >= after
+
+    def _publish(self, stream: str, msg: Any) -> None:
+        if not self._silenced(stream):
+            self._pubs[stream].publish(msg)
+
+    def publish_state(self, *, heartbeat: bool = False) -> None:
+        """Clock, odometry (and every PROPRIOCEPTION_EVERY steps, or on a heartbeat, IMU and joint states)
+        of the current instant, all stamped with it."""
+        stamp_s = self._now_ns() * 1e-9
+        frames = self.profile.frames
+        robot = self.robot
+        mujoco.mj_kinematics(robot.model, robot.data)  # after mj_step the body poses lag qpos by a step
+        base_to_world = np.eye(4)
+        base_to_world[:3, :3] = robot.data.xmat[self._trunk].reshape(3, 3)
+        base_to_world[:3, 3] = robot.data.xpos[self._trunk]
+        odom = self._reused["odom"]
+        fill_odometry(
+            odom,
+            base_to_world,
+            robot.base_twist(),
+            stamp_s=stamp_s,
+            odom_frame=frames.odom,
+            base_frame=frames.base,
+        )
+        self._publish("odom", odom)
+        if self._steps % PROPRIOCEPTION_EVERY == 0 or heartbeat:
+            imu = self._types["imu"]()
+            fill_imu(imu, robot.imu(), stamp_s=stamp_s, frame_id=frames.base)
+            self._publish("imu", imu)
+            joints = self._types["joint_states"]()
+            fill_joint_state(joints, self._joint_names, robot.joint_state(), stamp_s=stamp_s)
+            self._publish("joint_states", joints)
+        sim_time = self._reused["sim_time"]
+        sim_time.data = robot.now_s()
+        self._publish("sim_time", sim_time)
+        clock = self._reused["clock"]
+        fill_stamp(clock.clock, stamp_s)
+        self._publish("clock", clock)
+
+    def publish_frame(self, request: CameraRequest) -> None:
+        """Render the camera now and publish camera info, depth and (full frames) colour and segmentation."""
+        stamp_s = self._now_ns() * 1e-9
+        optical = self.profile.frames.camera_optical
+        observation: Observation
+        if request.kind == "full":
+            observation = self.robot.observe()
+        else:
+            observation = self.robot.observe_depth(pixel_grids=request.grids)
+        self._frame_log.append((self._now_ns(), time.monotonic()))  # rendered: the messages start here
+        info = self._types["color_info"]()
+        fill_camera_info(info, observation.intrinsics, stamp_s=stamp_s, frame_id=optical)
+        self._publish("color_info", info)
+        if request.kind == "full":
+            color = self._types["color_image"]()
+            fill_rgb_image(color, observation.rgb, stamp_s=stamp_s, frame_id=optical)
+            self._publish("color_image", color)
+            assert observation.segmentation is not None  # observe() always renders it
+            segmentation = self._types["segmentation"]()
+            fill_segmentation_image(segmentation, observation.segmentation, stamp_s=stamp_s, frame_id=optical)
+            self._publish("segmentation", segmentation)
+        depth = self._types["depth_image"]()
+        fill_depth_image(depth, observation.depth_m, stamp_s=stamp_s, frame_id=optical)
+        self._publish("depth_image", depth)
+        self._frames_published += 1
+
+    # ------------------------------------------------------------------ world
+
+    def step(self, twist: Twist) -> None:
+        """One control period under ``twist`` (the gait realises it in dynamic fidelity)."""
+        if self._gait is not None:
+            self._gait(self.robot, twist)
+        else:
+            self.robot.command_twist(twist)
+        self.robot.advance(CONTROL_PERIOD_S)
+        self._steps += 1
+        self._positions.append(self.robot.base_pose().position())
+        if self._now_ns() * 1e-9 >= self.options.max_sim_s:
+            self._stop("max_sim_s")
+
+    def _stop(self, reason: str) -> None:
+        if self._stop_reason is None:
+            self._stop_reason = reason
+
+    # ------------------------------------------------------------------ callbacks
+
+    def _on_cmd_vel(self, msg: Any) -> None:
+        try:
+            twist = twist_from_msg(msg)
+        except MessageError as error:
+            self._errors.append(f"{self.profile.topics.cmd_vel}: {error}; robot stopped")
+            twist = Twist.zero()
+        self._cmd_twist = twist
+        self._cmd_arrived_s = time.monotonic()
+        self._cmd_arrived_ns = self._now_ns()
+        self._cmd_count += 1
+        self._timed_out = False
+
+    def _on_step(self, msg: Any) -> None:
+        target_ns = stamp_to_ns(msg.header.stamp)
+        try:
+            twist = twist_from_msg(msg.twist)
+        except MessageError as error:
+            self._errors.append(f"{STEP_TOPIC}: {error}; stepping with a zero twist")
+            twist = Twist.zero()
+        # The executive's target time, in whole control periods (normally one).
+        while self._now_ns() + self._period_ns // 2 < target_ns and self._stop_reason is None:
+            self.step(twist)
+        self._last_step_wall_s = time.monotonic()
+        self.publish_state()
+
+    def _on_camera_request(self, msg: Any) -> None:
+        try:
+            request = decode_camera_request(msg.data)
+        except InvalidInputError as error:
+            self._errors.append(str(error))
+            return
+        self.publish_frame(request)
+
+    def _on_outcome(self, msg: Any) -> None:
+        try:
+            self._outcome = decode_outcome(msg.data)
+        except InvalidInputError as error:
+            self._errors.append(str(error))
+        self._stop("mission_end")
+
+    # ------------------------------------------------------------------ loops
+
+    def request_stop(self, reason: str) -> None:
+        """End :meth:`run` at the next turn of its loop (signal handlers call this)."""
+        self._stop(reason)
+
+    def _driver_command(self) -> Twist:
+        """The latest /cmd_vel, or zero once the driver's timeout has passed since it arrived."""
+        if self._cmd_arrived_s is None:
+            return Twist.zero()
+        silent_s = time.monotonic() - self._cmd_arrived_s
+        if silent_s > self.profile.command.driver_timeout_s:
+            if not self._timed_out:
+                self._timed_out = True
+                # Wall and simulated silence: on a loaded machine the control loop (and the world) may lag
+                # the wall clock; the robot moves only in simulated time.
+                self._timeouts.append(
+                    {
+                        "sim_time_s": self._now_ns() * 1e-9,
+                        "silent_s": round(silent_s, 4),
+                        "sim_silent_s": round((self._now_ns() - self._cmd_arrived_ns) * 1e-9, 4),
+                    }
+                )
+            return Twist.zero()
+        return self._cmd_twist
+
+    def run(self) -> dict[str, Any]:
+        """Serve until the mission ends, a signal, ``max_sim_s`` or ``max_wall_s``; return the result."""
+        wall_start = time.monotonic()
+        self.publish_state(heartbeat=True)
+        self._heartbeat.start()
+        try:
+            if self.options.mode == "lockstep":
+                self._run_lockstep(wall_start)
+            else:
+                self._run_realtime(wall_start)
+        finally:
+            self._heartbeat_stop.set()
+            self._heartbeat.join(timeout=1.0)
+            self.robot.stop()
+        result = self.result(wall_s=time.monotonic() - wall_start)
+        if self.options.result_path is not None:
+            import json
+
+            self.options.result_path.parent.mkdir(parents=True, exist_ok=True)
+            self.options.result_path.write_text(json.dumps(result, indent=1))
+        return result
+
+    def _wall_exceeded(self, wall_start: float) -> bool:
+        limit = self.options.max_wall_s
+        if limit is not None and time.monotonic() - wall_start > limit:
+            self._stop("max_wall_s")
+        return self._stop_reason is not None
+
+    def _run_lockstep(self, wall_start: float) -> None:
+        while not self._wall_exceeded(wall_start):
+            self._executor.spin_once(timeout_sec=HEARTBEAT_S / 5)
+            if time.monotonic() - self._last_step_wall_s > HEARTBEAT_S:
+                self.publish_state(heartbeat=True)
+                self._last_step_wall_s = time.monotonic()
+
+    def _run_realtime(self, wall_start: float) -> None:
+        frame_every = max(1, int(round(1.0 / (self.options.camera_hz * CONTROL_PERIOD_S))))
+        next_step = time.monotonic()
+        while not self._wall_exceeded(wall_start):
+            now = time.monotonic()
+            if now < next_step:
+                self._executor.spin_once(timeout_sec=next_step - now)
+                continue
+            self.step(self._driver_command())
+            self.publish_state()
+            if self._steps % frame_every == 0:
+                self.publish_frame(CameraRequest(kind="full"))
+            # Behind schedule (a slow render), simulated time runs slower than the wall: no catch-up burst.
+            next_step = max(next_step + CONTROL_PERIOD_S, time.monotonic() - CONTROL_PERIOD_S)
+
+    # ------------------------------------------------------------------ result
+
+    def result(self, *, wall_s: float) -> dict[str, Any]:
+        """The episode's scoring plus what the bridge saw of the link."""
+        outcome, found = self._outcome if self._outcome is not None else ("interrupted", [])
+        score = score_episode(
+            scene=self.scene,
+            episode=self.episode,
+            outcome=outcome,
+            found_objects=found,
+            positions=self._positions,
+            final_pose=self.robot.base_pose(),
+            safety=self.robot.safety(),
+            success_radius_m=self.options.success_radius_m,
+            clearance_m=self.options.clearance_m,
+        )
+        return {
+            "scene": self.scene.name,
+            "seed": self.options.seed,
+            "fidelity": self.options.fidelity,
+            "mode": self.options.mode,
+            "instruction": self.scene.instruction,
+            **score,
+            "found_objects": found,
+            "ended_by": self._stop_reason,
+            "steps": self._steps,
+            "sim_time_s": self._now_ns() * 1e-9,
+            "wall_time_s": wall_s,
+            "frames_published": self._frames_published,
+            # (stamp ns, steady time the frame was rendered) per frame: the latency benchmark's send side.
+            "frame_log": self._frame_log[-4096:],
+            "cmd_vel": {
+                "received": self._cmd_count,
+                "last": [
+                    self._cmd_twist.linear_x_mps,
+                    self._cmd_twist.linear_y_mps,
+                    self._cmd_twist.angular_z_radps,
+                ],
+                "timeouts": self._timeouts,
+            },
+            "errors": self._errors,
+        }
+
+    def close(self) -> None:
+        """Release the renderer and the ROS context (idempotent)."""
+        self.robot.close()
+        self._executor.shutdown(timeout_sec=1.0)
+        self.node.destroy_node()
+        self._context.try_shutdown()
+
+
+__all__ = ["BridgeOptions", "CONTROL_PERIOD_S", "SILENCEABLE", "SimBridge", "camera_config_for"]

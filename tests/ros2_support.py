@@ -1,0 +1,100 @@
+"""Shared by the ROS 2 tests: loopback-only DDS for every ROS process they start, and process helpers.
+
+Every ROS participant a test creates, in this process or a child, uses the Fast DDS profile that allows
+only 127.0.0.1 (``scripts/fastdds_loopback.xml``), ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` and a
+domain id of its own (random, drawn once per test). ``make test`` also runs these tests inside a network
+namespace that has only ``lo`` (``scripts/ros2_isolated.sh``).
+"""
+
+from __future__ import annotations
+
+import os
+import random
+import subprocess
+import sys
+import time
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+LOOPBACK_PROFILE = ROOT / "scripts" / "fastdds_loopback.xml"
+MISSION = ROOT / "trees" / "object_search.yaml"
+
+#: The domain ids drawn in this process, so that no two tests share one.
+_USED_DOMAINS: set[int] = set()
+
+
+def fresh_domain_id() -> int:
+    """A random ROS domain id (1-101) no earlier test of this process used."""
+    while True:
+        domain = random.SystemRandom().randint(1, 101)
+        if domain not in _USED_DOMAINS:
+            _USED_DOMAINS.add(domain)
+            return domain
+
+
+def isolated_env(domain_id: int, **extra: str) -> dict[str, str]:
+    """The environment of a ROS process a test starts: loopback only, on ``domain_id``."""
+    env = dict(os.environ)
+    env.update(
+        FASTRTPS_DEFAULT_PROFILES_FILE=str(LOOPBACK_PROFILE),
+        FASTDDS_DEFAULT_PROFILES_FILE=str(LOOPBACK_PROFILE),
+        ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
+        ROS_DOMAIN_ID=str(domain_id),
+        RMW_IMPLEMENTATION="rmw_fastrtps_cpp",
+        MUJOCO_GL="egl",
+        PYTHONUNBUFFERED="1",
+    )
+    env.update(extra)
+    return env
+
+
+def isolate_this_process(domain_id: int) -> None:
+    """Apply :func:`isolated_env` to this process (before its first ROS context on that domain).
+
+    Fast DDS reads the profile file when the first participant of the process is created; the domain id
+    is read per context, so a test may move to a fresh one.
+    """
+    os.environ.update({k: v for k, v in isolated_env(domain_id).items() if k not in ("PYTHONUNBUFFERED",)})
+
+
+def semexp(args: Sequence[str], *, env: Mapping[str, str], log: Path) -> subprocess.Popen[bytes]:
+    """Start ``semexp-bt ARGS`` with this interpreter (the ROS 2 environment), output to ``log``."""
+    handle = open(log, "wb")
+    return subprocess.Popen(
+        [sys.executable, "-m", "semexp_bt", *args],
+        cwd=ROOT,
+        env=dict(env),
+        stdout=handle,
+        stderr=subprocess.STDOUT,
+    )
+
+
+def stop(process: subprocess.Popen[bytes], *, timeout_s: float = 20.0) -> int:
+    """SIGTERM, then SIGKILL after ``timeout_s``; the exit status."""
+    if process.poll() is None:
+        process.terminate()
+        try:
+            return process.wait(timeout=timeout_s)
+        except subprocess.TimeoutExpired:
+            process.kill()
+    return process.wait(timeout=timeout_s)
+
+
+def wait_for_bridge(log: Path, process: subprocess.Popen[bytes], *, timeout_s: float = 180.0) -> None:
+    """Wait until the bridge says it is serving (its scene, oracle and renderer are built)."""
+    ready = wait_for(
+        lambda: "sim-bridge: " in log.read_text() or process.poll() is not None, timeout_s=timeout_s
+    )
+    if not ready or process.poll() is not None:
+        raise AssertionError(f"the bridge did not come up:\n{log.read_text()[-3000:]}")
+
+
+def wait_for(predicate: object, *, timeout_s: float, period_s: float = 0.05) -> bool:
+    """Poll ``predicate()`` until it is true or ``timeout_s`` passes."""
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        if predicate():  # type: ignore[operator]
+            return True
+        time.sleep(period_s)
+    return bool(predicate())  # type: ignore[operator]

@@ -1,0 +1,185 @@
+"""The ROS 2 robot profile, the /sim protocol payloads, and the default path's independence from rclpy.
+
+None of this needs rclpy: it runs in the default environment.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+import yaml
+
+from robots.camera import CameraConfig
+from robots.go1 import CAMERA_NAME, TRUNK_BODY_NAME
+from robots.mujoco_backend import MujocoRobot
+from robots.ros2_profile import (
+    GO1_PROFILE_PATH,
+    ProfileError,
+    Ros2Profile,
+    load_ros2_profile,
+    profile_from_dict,
+)
+from robots.ros2_sim_protocol import (
+    CameraRequest,
+    SimProtocolError,
+    decode_camera_request,
+    decode_outcome,
+    decode_simulation_info,
+    encode_camera_request,
+    encode_outcome,
+    encode_simulation_info,
+)
+from semexp_bt.core.types import PixelGrid, Pose2D
+from sims.catalogue import build_scene
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _as_nested_dict(value: object) -> object:
+    if dataclasses.is_dataclass(value):
+        return {f.name: _as_nested_dict(getattr(value, f.name)) for f in dataclasses.fields(value)}
+    return value
+
+
+def test_the_shipped_go1_profile_states_every_key_at_its_default() -> None:
+    """The YAML is the user's template: it must show every key, and say what the code defaults to."""
+    written = yaml.safe_load(GO1_PROFILE_PATH.read_text())
+    defaults = _as_nested_dict(Ros2Profile())
+    assert isinstance(defaults, dict)
+    defaults.pop("source")
+    assert written == defaults
+    profile = load_ros2_profile()
+    assert profile.source == str(GO1_PROFILE_PATH)
+    assert profile.topics.depth_image == "/camera/camera/aligned_depth_to_color/image_raw"
+    assert profile.qos.cmd_vel.reliability == "best_effort"
+    assert profile.command.driver_timeout_s == 0.4 and profile.command.rate_hz >= 20.0
+
+
+@pytest.mark.parametrize(
+    ("document", "message"),
+    [
+        ({"topics": {"odm": "/odom"}}, "unknown key 'topics.odm'"),
+        ({"topics": {"odom": "odom"}}, "key 'topics.odom' must be an absolute topic name"),
+        ({"topics": {"odom": 5}}, "key 'topics.odom' must be a non-empty string"),
+        ({"frames": {"base": ""}}, "key 'frames.base' must be a non-empty string"),
+        ({"qos": {"odom": {"reliability": "sure"}}}, "key 'qos.odom.reliability' must be one of"),
+        ({"qos": {"odom": {"depth": 0}}}, "key 'qos.odom.depth' must lie in"),
+        ({"deadlines_s": {"color_image": 0}}, "key 'deadlines_s.color_image' must lie in"),
+        ({"command": {"rate_hz": 10}}, "key 'command.rate_hz' must lie in [20.0"),
+        ({"camera": {"mount": {"pitch_rad": "down"}}}, "key 'camera.mount.pitch_rad' must be a number"),
+        ({"source": "x"}, "unknown key 'source'"),
+        (["not", "a", "mapping"], "'<root>' must be a mapping"),
+    ],
+)
+def test_a_bad_profile_key_is_named_with_its_file(document: object, message: str) -> None:
+    with pytest.raises(ProfileError) as error:
+        profile_from_dict(document, where="my_robot.yaml")
+    print(error.value)
+    assert str(error.value).startswith("my_robot.yaml: ")
+    assert message in str(error.value)
+
+
+def test_a_profile_file_that_is_not_yaml_names_its_line(tmp_path: Path) -> None:
+    path = tmp_path / "robot.yaml"
+    path.write_text("topics:\n  odom: /odom\n  imu: [unclosed\n")
+    with pytest.raises(ProfileError, match=r"robot profile .*robot\.yaml:\d+:\d+: YAML syntax error"):
+        load_ros2_profile(path)
+    with pytest.raises(ProfileError, match=r"robot profile .*missing\.yaml: not found"):
+        load_ros2_profile(tmp_path / "missing.yaml")
+
+
+def test_a_partial_profile_keeps_the_defaults_of_what_it_does_not_state(tmp_path: Path) -> None:
+    path = tmp_path / "robot.yaml"
+    path.write_text("topics: {cmd_vel: /go1/cmd_vel}\ndeadlines_s: {odom: 0.2}\n")
+    profile = load_ros2_profile(path)
+    assert profile.topics.cmd_vel == "/go1/cmd_vel" and profile.deadline_of("odom") == 0.2
+    assert profile.topics.odom == "/odom" and profile.deadline_of("imu") == 0.5
+
+
+def test_the_profile_mount_places_the_optical_frame_where_the_simulated_camera_is() -> None:
+    """One camera, two descriptions: the profile's mount (REP-103 optical frame on camera_link) and the
+    MuJoCo head camera (robots/camera.py). The bridge builds its camera from the profile, and the shipped
+    defaults must describe the camera the in-process runs use."""
+    profile = load_ros2_profile()
+    mount = profile.camera.mount
+    sim = CameraConfig()
+    assert (mount.x_m, mount.y_m, mount.z_m) == sim.mount_position_m
+    assert math.isclose(math.degrees(mount.pitch_rad), sim.mount_pitch_down_deg, abs_tol=1e-12)
+    robot = MujocoRobot(
+        scene=build_scene("showroom", seed=0), fidelity="kinematic", start_pose=Pose2D(1.0, 2.0, 0.7), seed=0
+    )
+    try:
+        data, model = robot.data, robot.model
+        trunk = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, TRUNK_BODY_NAME)
+        base_to_world = np.eye(4)
+        base_to_world[:3, :3] = data.xmat[trunk].reshape(3, 3)
+        base_to_world[:3, 3] = data.xpos[trunk]
+        camera = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, CAMERA_NAME)
+        assert camera >= 0
+        simulated = robot.observe_depth(pixel_grids=[PixelGrid(stride=40)]).camera_to_world
+    finally:
+        robot.close()
+    from_profile = base_to_world @ profile.optical_to_base()
+    print(np.round(from_profile, 6))
+    np.testing.assert_allclose(from_profile, simulated, atol=1e-6)
+
+
+def test_the_scene_announcement_withholds_where_things_are() -> None:
+    scene = build_scene("showroom", seed=9)
+    info = decode_simulation_info(
+        encode_simulation_info(scene, mode="lockstep", control_period_s=0.02, seed=9)
+    )
+    assert info.mode == "lockstep" and info.seed == 9 and info.control_period_s == 0.02
+    assert [o.object_id for o in info.scene.objects] == [o.object_id for o in scene.objects]
+    assert [(o.label, o.category, o.role, o.size_m) for o in info.scene.objects] == [
+        (o.label, o.category, o.role, o.size_m) for o in scene.objects
+    ]
+    assert all(o.position_m == (0.0, 0.0, 0.0) and o.yaw_rad == 0.0 for o in info.scene.objects)
+    assert info.scene.bounds_m == (0.0, 0.0, 0.0, 0.0)
+    assert info.scene.goal.label == scene.goal.label and info.scene.instruction == scene.instruction
+
+
+def test_camera_requests_and_outcomes_round_trip_and_bad_payloads_are_named() -> None:
+    request = CameraRequest(kind="depth", grids=(PixelGrid(stride=8, offset=4), PixelGrid(stride=4)))
+    assert decode_camera_request(encode_camera_request(request)) == request
+    assert decode_camera_request(encode_camera_request(CameraRequest(kind="full"))) == CameraRequest(
+        kind="full"
+    )
+    found = [{"label": "chair", "position_m": [1.0, 2.0, 0.5], "robot_xy": [0.5, 1.5]}]
+    assert decode_outcome(encode_outcome("success", found)) == ("success", found)
+    for text, topic in [
+        ("{", "/sim/camera/request: not JSON"),
+        ('{"kind": "half"}', "/sim/camera/request: field 'kind'"),
+        ('{"kind": "depth", "grids": [[4]]}', "/sim/camera/request: field 'grids'"),
+    ]:
+        with pytest.raises(SimProtocolError, match=topic):
+            decode_camera_request(text)
+    with pytest.raises(SimProtocolError, match="/sim/outcome: each found object needs 'position_m'"):
+        decode_outcome('{"outcome": "success", "found_objects": [{"label": "x"}]}')
+    with pytest.raises(SimProtocolError, match="/sim/scene: missing field 'scene'"):
+        decode_simulation_info('{"mode": "lockstep", "control_period_s": 0.02, "seed": 1}')
+
+
+def test_the_default_path_never_imports_rclpy() -> None:
+    """`semexp-bt --help`, `run --help` and building the component tables load no ROS library."""
+    probe = (
+        "import sys, contextlib, io\n"
+        "from semexp_bt.cli import main\n"
+        "import semexp_bt.app.components, semexp_bt.cli.run, semexp_bt.cli.sim_bridge\n"
+        "with contextlib.redirect_stdout(io.StringIO()):\n"
+        "    for argv in (['--help'], ['run', '--help']):\n"
+        "        try:\n"
+        "            main(argv)\n"
+        "        except SystemExit:\n"
+        "            pass\n"
+        "print(sorted(m for m in sys.modules if m.split('.')[0] in ('rclpy', 'rosidl_parser', 'sensor_msgs')))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", probe], cwd=ROOT, capture_output=True, text=True, check=True)
+    assert out.stdout.strip().splitlines()[-1] == "[]"
