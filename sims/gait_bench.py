@@ -585,13 +585,13 @@ ROWS = (
 
 def format_table(result: dict[str, Any]) -> str:
     """A plain-text table: one row per figure, policy beside reference."""
-    lines = [f"{'figure':30s} {'policy':>10s} {'reference':>10s}"]
+    lines = [f"{'figure':34s} {'policy':>10s} {'reference':>10s}"]
     for label, section, key, fmt in ROWS:
         cells = [
             fmt.format(result["gaits"][g][section][key]) if section in result["gaits"][g] else "-"
             for g in ("policy", "reference")
         ]
-        lines.append(f"{label:30s} {cells[0]:>10s} {cells[1]:>10s}")
+        lines.append(f"{label:34s} {cells[0]:>10s} {cells[1]:>10s}")
     met = ", ".join(f"{k}={'yes' if v else 'NO'}" for k, v in result["floors_met"].items())
     lines.append(f"policy floors: {met}")
     policy = result["gaits"]["policy"]

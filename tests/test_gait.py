@@ -284,6 +284,35 @@ def test_bench_quick_runs() -> None:
     assert "pushes recovered" in format_table(result)
 
 
+def test_bench_contact_only_runs_the_contact_section_alone_and_tabulates_it(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    import sims.gait_bench as bench
+
+    def not_in_a_contact_only_run(*args: object, **kwargs: object) -> None:
+        raise AssertionError("a contact-only run benchmarked open ground")
+
+    cases = {"cases": 2, "fell": 1, "fell_cases": ["wall 1.0 m/s 0 deg"]}
+    contact = {
+        "run_in": cases, "turn_beside": {"cases": 1, "fell": 0, "fell_cases": []},
+        "bump_and_turn": {"cases": 1, "fell": 0, "fell_cases": []},
+        "command_steps": {"envs": 1, "steps_per_env": 2, "falls": 0},
+        "obstacle_course": {"seeds": 1, "minutes_per_seed": 2.0, "falls": 2, "contact_share": 0.12},
+        "run_in_fell": 1, "turn_beside_fell": 0, "bump_and_turn_fell": 0, "command_step_falls": 0,
+        "course_falls": 2, "falls": 3,
+    }  # fmt: skip
+    for name in ("_grid", "_random", "_pushes"):
+        monkeypatch.setattr(bench, name, not_in_a_contact_only_run)
+    monkeypatch.setattr(bench, "_contact", lambda policy, **kwargs: contact)
+    result = bench.run_gait_bench(seeds=1, contact_only=True)
+    table = bench.format_table(result)
+    print(table)
+    assert result["floors_met"] == {"no_contact_falls": False}
+    assert result["gaits"]["policy"] == {"contact": contact}
+    assert "contact: obstacle-course falls" in table and "wall 1.0 m/s 0 deg" in table
+    assert "random commands" not in table
+
+
 def _gravity_tilted(angle_rad: float) -> np.ndarray:
     """Projected gravity of a trunk rolled by ``angle_rad``."""
     return np.array([[0.0, math.sin(angle_rad), -math.cos(angle_rad)]])
