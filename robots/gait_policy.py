@@ -27,6 +27,7 @@ import numpy as np
 import numpy.typing as npt
 
 from robots.go1 import LEG_NAMES, NUM_JOINTS, load_go1_spec
+from semexp_bt.core.clock import CLOCK_TOLERANCE_S
 from semexp_bt.core.geometry import wrap_angle
 from semexp_bt.core.types import FloatArray, InvalidInputError, Twist, require_finite
 
@@ -52,6 +53,15 @@ COMMAND_HIGH = np.array([1.0, 0.3, 1.0])
 #: backend's BaseMotionLimits, so both fidelities ramp alike. A step from 1 m/s to reverse or to a stop is
 #: what made the policy fall in the benchmark; ramped, the command stays inside what training showed.
 COMMAND_ACCEL_LIMITS = np.array([2.0, 2.0, 4.0])
+#: Trunk tilt (rad, from the IMU's gravity) at which the controller stops walking: the command ramps to
+#: zero and the policy balances standing. Both dynamic-mission falls measured in docs/gait.md built up
+#: over 0.4-1.5 s from a push into furniture or a turn with a foot caught on it, passing 0.25 rad
+#: 0.3-0.6 s before the fall; missions without a fall stay below 0.16 rad.
+NEAR_FALL_TILT_RAD = 0.25
+#: The controller walks again (ramping up from zero) once the tilt has stayed below this for
+#: RECOVERY_HOLD_S.
+RECOVERED_TILT_RAD = 0.1
+RECOVERY_HOLD_S = 1.0
 #: Where the shipped checkpoint lives.
 DEFAULT_CHECKPOINT_DIR = Path(__file__).resolve().parent / "gait_checkpoints"
 WEIGHTS_FILE = "policy.npz"
@@ -399,12 +409,48 @@ def load_policy(directory: Path | str | None = None) -> GaitPolicy:
     return GaitPolicy(config=config, actor=actor, prior=TrotPrior(config.trot))
 
 
+class NearFallRecovery:
+    """Per robot of a batch: whether a near fall holds its command at zero (see :class:`GaitController`).
+
+    A robot enters recovery when its trunk tilt (the angle between the body's z axis and the vertical,
+    from the projected gravity) exceeds :data:`NEAR_FALL_TILT_RAD` and leaves it once the tilt has stayed
+    below :data:`RECOVERED_TILT_RAD` for :data:`RECOVERY_HOLD_S`.
+
+    Args:
+        count: robots in the batch.
+        control_dt_s: the period between :meth:`update` calls.
+    """
+
+    def __init__(self, count: int, *, control_dt_s: float = CONTROL_DT_S) -> None:
+        self.control_dt_s = control_dt_s
+        self.recovering = np.zeros(count, dtype=bool)
+        self.near_falls = 0
+        self._calm_s = np.zeros(count)
+
+    def update(self, gravity_body: FloatArray) -> npt.NDArray[np.bool_]:
+        """Advance one period with the projected gravity ``(count, 3)``; returns who is recovering."""
+        tilt = np.arccos(np.clip(-np.asarray(gravity_body, dtype=float)[:, 2], -1.0, 1.0))
+        tipping = tilt > NEAR_FALL_TILT_RAD
+        self.near_falls += int(np.sum(tipping & ~self.recovering))
+        level = tilt < RECOVERED_TILT_RAD
+        self._calm_s = np.where(self.recovering & level, self._calm_s + self.control_dt_s, 0.0)
+        # The one clock rule (semexp_bt/core/clock.py): a hold reached within the tolerance counts as done.
+        held = self._calm_s >= RECOVERY_HOLD_S - CLOCK_TOLERANCE_S
+        self.recovering = tipping | (self.recovering & ~held)
+        self._calm_s[tipping] = 0.0
+        return self.recovering.copy()
+
+
 class GaitController:
     """Runs a gait on a :class:`~robots.interface.Robot` every tick: ``controller(robot, twist)``.
 
     It clips the twist to the command ranges and ramps it within :data:`COMMAND_ACCEL_LIMITS`, reads
     ``robot.joint_state()`` and ``robot.imu()``, keeps its own phase clock, ramped command and last action,
     and calls ``robot.command_joint_targets()``. One call = one control period (:data:`CONTROL_DT_S`).
+
+    Near-fall recovery (:class:`NearFallRecovery`): past :data:`NEAR_FALL_TILT_RAD` of trunk tilt the
+    requested twist is replaced by zero (ramped down: a raw step is itself a fall risk) until the robot
+    has been level again for :data:`RECOVERY_HOLD_S`.
     """
 
     def __init__(self, policy: GaitPolicy, *, control_dt_s: float = CONTROL_DT_S) -> None:
@@ -413,25 +459,40 @@ class GaitController:
         self.phase = 0.0
         self.last_action = np.zeros(ACTION_DIM)
         self.command = np.zeros(3)
+        self.recovery = NearFallRecovery(1, control_dt_s=control_dt_s)
         self._standing = policy.prior.standing_pose_rad
+
+    @property
+    def recovering(self) -> bool:
+        """Whether the near-fall recovery holds the command at zero now."""
+        return bool(self.recovery.recovering[0])
+
+    @property
+    def near_falls(self) -> int:
+        """Near falls (tilt past NEAR_FALL_TILT_RAD) since the controller was made."""
+        return self.recovery.near_falls
 
     def reset(self) -> None:
         self.phase = 0.0
         self.last_action = np.zeros(ACTION_DIM)
         self.command = np.zeros(3)
+        self.recovery = NearFallRecovery(1, control_dt_s=self.control_dt_s)
 
     def __call__(self, robot: Robot, twist: Twist) -> None:
         raw = [twist.linear_x_mps, twist.linear_y_mps, twist.angular_z_radps]
         require_finite("twist", raw)
         requested = np.clip(np.asarray(raw, dtype=float), COMMAND_LOW, COMMAND_HIGH)
-        self.command = ramp_command(self.command, requested, self.control_dt_s)
-        command = self.command[None, :]
         joints = robot.joint_state()
         imu = robot.imu()
+        gravity = projected_gravity(np.asarray(imu.orientation_wxyz, dtype=float))
+        if self.recovery.update(gravity[None, :])[0]:
+            requested = np.zeros(3)
+        self.command = ramp_command(self.command, requested, self.control_dt_s)
+        command = self.command[None, :]
         obs = build_observation(
             command=command,
             gyro_radps=np.asarray(imu.angular_velocity_radps, dtype=float)[None, :],
-            gravity_body=projected_gravity(np.asarray(imu.orientation_wxyz, dtype=float))[None, :],
+            gravity_body=gravity[None, :],
             joint_position_rel_rad=(np.asarray(joints.position_rad, dtype=float) - self._standing)[None, :],
             joint_velocity_radps=np.asarray(joints.velocity_radps, dtype=float)[None, :],
             last_action=self.last_action[None, :],

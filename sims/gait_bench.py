@@ -9,6 +9,12 @@ Every figure runs on the nominal Go1 (no domain randomisation, no observation no
   outside the ``SETTLE_S`` after each change; falls (the env resets a fallen robot and counts it);
   cost of transport (mean motor power / (m g mean speed)); joint-target rate; torque saturation;
 - pushes: a lateral 0.5 m/s velocity kick every ``PUSH_PERIOD_S``; recovered = no fall before the next;
+- contact (what falls in missions come from): walking into a wall, a post or a low box at 0.5 and 1 m/s,
+  square or at 30 degrees, and pushing on for ``RUN_IN_PUSH_S`` before backing off and turning; turning in
+  place at 1 rad/s beside a wall and in a corner; walking into a wall or a bush off-centre and then
+  turning in place, reversing; ramped steps between the corners of the command range; and an obstacle
+  course (the training task's random boxes and command holds, nominal robot, held-out seeds).
+  The figures are the cases that fell and the falls;
 - inference: median wall time of the numpy actor on one observation, and of actor + trot prior.
 """
 
@@ -19,6 +25,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+import mujoco
 import numpy as np
 import numpy.typing as npt
 
@@ -28,12 +35,13 @@ from robots.gait_policy import (
     CONTROL_DT_S,
     OBS_DIM,
     GaitPolicy,
+    NearFallRecovery,
     load_policy,
     ramp_command,
 )
 from semexp_bt.core import durable
 from semexp_bt.core.types import FloatArray
-from sims.gait_env import GaitEnv, GaitEnvConfig, NoiseConfig, RandomizationConfig
+from sims.gait_env import GaitEnv, GaitEnvConfig, NoiseConfig, ObstacleConfig, RandomizationConfig
 
 SETTLE_S = 1.5
 COMMAND_HOLD_S = 4.0
@@ -46,10 +54,45 @@ FLOORS = {
     "falls": 0,
     "push_recovery_rate": 0.9,
     "inference_ms": 0.5,
+    "contact_falls": 0,
 }
 GRID_VX = (-0.5, 0.0, 0.5, 1.0)
 GRID_VY = (-0.3, 0.0, 0.3)
 GRID_WZ = (-1.0, 0.0, 1.0)
+#: Contact cases: forward speeds, wall angles (rad from square), obstacles (half sizes, lateral offset).
+RUN_IN_SPEEDS_MPS = (0.5, 1.0)
+RUN_IN_ANGLES_RAD = (0.0, math.radians(30.0), -math.radians(30.0))
+RUN_IN_OBSTACLES = {
+    "wall": ((0.1, 1.5, 0.5), 0.0),
+    "post": ((0.1, 0.1, 0.4), 0.12),
+    "low_box": ((0.15, 0.4, 0.06), 0.0),
+}
+#: Trunk centre to the obstacle's near face at the start (m).
+RUN_IN_DISTANCE_M = 1.0
+#: Seconds of the forward command (it reaches the obstacle after about half of it, then pushes on).
+RUN_IN_PUSH_S = 6.0
+#: Turn-in-place cases: trunk centre line to the side wall's face (m); turn seconds per direction.
+TURN_GAPS_M = (0.2, 0.3)
+TURN_S = 8.0
+#: Bump-and-turn cases: walk at BUMP_SPEED_MPS into an obstacle (half sizes, yaw) placed off-centre, then
+#: turn in place at 1 rad/s, reversing every BUMP_TURN_S.
+BUMP_OBSTACLES = {
+    "wall": ((0.1, 1.5, 0.6), 0.0),
+    "bush": ((0.32, 0.32, 0.45), math.pi / 4.0),
+}
+BUMP_OFFSETS_M = (-0.2, 0.0, 0.2)
+BUMP_DISTANCE_M = 0.6
+BUMP_SPEED_MPS = 0.6
+BUMP_WALK_S = 3.0
+BUMP_TURN_S = 0.8
+BUMP_REVERSALS = 6
+#: Obstacle course: env seeds start here (training seeds are small), minutes per seed.
+COURSE_SEED_OFFSET = 10_000
+COURSE_MINUTES = 2.0
+#: Command steps: commands held this long, envs, steps per env.
+STEP_HOLD_S = 1.5
+STEP_ENVS = 10
+STEP_COUNT = 16
 
 
 def _nominal_env(num_envs: int, *, trot_policy: GaitPolicy, seed: int) -> GaitEnv:
@@ -61,6 +104,7 @@ def _nominal_env(num_envs: int, *, trot_policy: GaitPolicy, seed: int) -> GaitEn
         residual_scale_rad=trot_policy.config.residual_scale_rad,
         randomization=RandomizationConfig(enabled=False),
         noise=NoiseConfig(enabled=False),
+        obstacles=ObstacleConfig(enabled=False),
     )
     return GaitEnv(config, seed=seed)
 
@@ -116,9 +160,18 @@ class _Stats:
 
 
 def _run(
-    env: GaitEnv, policy: GaitPolicy, steps: int, on_step: Any = None, *, ramp: bool = True
+    env: GaitEnv,
+    policy: GaitPolicy,
+    steps: int,
+    on_step: Any = None,
+    *,
+    ramp: bool = True,
+    recovery: bool = True,
 ) -> tuple[int, _Stats, FloatArray]:
-    """Step ``env`` under ``policy`` for ``steps``; ``on_step(k, env)`` may change commands or push."""
+    """Step ``env`` under ``policy`` for ``steps``; ``on_step(k, env)`` may change commands or push.
+
+    With ``ramp`` the commands are ramped as :class:`GaitController` ramps them, and with ``recovery``
+    also held at zero through near falls as it does (:class:`NearFallRecovery`)."""
     stats = _Stats()
     falls = np.zeros(env.num_envs, dtype=int)
     obs = env.observe(noisy=False)
@@ -127,6 +180,7 @@ def _run(
     # GaitController ramps it, and errors are measured against the request.
     requested = env.commands.copy()
     ramped = np.zeros_like(requested) if ramp else requested
+    near_fall = NearFallRecovery(env.num_envs)
     for k in range(steps):
         if on_step is not None:
             env.commands[:] = requested
@@ -135,7 +189,10 @@ def _run(
                 since_change[changed] = 0.0
             requested = env.commands.copy()
         if ramp:
-            ramped = ramp_command(ramped, requested)
+            # As GaitController: a near fall holds the command at zero, then the ramp.
+            holding = near_fall.update(env.gravity_body) if recovery else np.zeros(env.num_envs, dtype=bool)
+            asked = np.where(holding[:, None], 0.0, requested)
+            ramped = ramp_command(ramped, asked)
             env.commands[:] = ramped
             obs = env.observe(noisy=False)
         elif on_step is not None:
@@ -227,6 +284,184 @@ def _pushes(policy: GaitPolicy, *, seeds: int, pushes_per_seed: int, seed: int) 
     }
 
 
+def _obstacle_env(policy: GaitPolicy, cases: int) -> GaitEnv:
+    env = _nominal_env(cases, trot_policy=policy, seed=0)
+    for i in range(cases):
+        # Every robot faces +x from its spawn point (the nominal env spawns at a random yaw).
+        data = env.datas[i]
+        data.qpos[3:7] = [1.0, 0.0, 0.0, 0.0]
+        data.qvel[:] = 0.0
+        mujoco.mj_forward(env.models[i], data)
+    env._read_state()
+    return env
+
+
+def _fell(env: GaitEnv, policy: GaitPolicy, steps: int, on_step: Any, *, recovery: bool = True) -> FloatArray:
+    """Per-env falls over ``steps`` (a fallen robot is reset and moved away: its first fall is the count)."""
+    _, _, per_env = _run(env, policy, steps, on_step, recovery=recovery)
+    return per_env
+
+
+def _cases_fell(names: list[str], per_env: FloatArray) -> dict[str, Any]:
+    """How many cases (one per env, named) fell, and which."""
+    return {
+        "cases": len(names),
+        "fell": int(np.sum(per_env > 0)),
+        "fell_cases": [name for name, falls in zip(names, per_env, strict=True) if falls],
+    }
+
+
+def _run_in(
+    policy: GaitPolicy,
+    *,
+    speeds: tuple[float, ...] = RUN_IN_SPEEDS_MPS,
+    angles: tuple[float, ...] = RUN_IN_ANGLES_RAD,
+    recovery: bool = True,
+) -> dict[str, Any]:
+    """Walk into each obstacle at each speed and angle, push on, back off, turn; count the cases that fell."""
+    cases = [(name, speed, angle) for name in RUN_IN_OBSTACLES for speed in speeds for angle in angles]
+    env = _obstacle_env(policy, len(cases))
+    for i, (name, _, angle) in enumerate(cases):
+        half, lateral = RUN_IN_OBSTACLES[name]
+        x, y = env.datas[i].qpos[0:2]
+        centre = np.array([x + RUN_IN_DISTANCE_M + half[0], y + lateral])
+        env.place_obstacle(i, 0, centre, angle, half)
+    case_speeds = np.array([speed for _, speed, _ in cases])
+    forward, back, turn = (int(round(s / CONTROL_DT_S)) for s in (RUN_IN_PUSH_S, 2.0, 2.0))
+
+    def script(k: int, env: GaitEnv) -> None:
+        if k < forward:
+            env.commands[:] = np.column_stack([case_speeds, np.zeros((len(cases), 2))])
+        elif k < forward + back:
+            env.commands[:] = [-0.3, 0.0, 0.0]
+        else:
+            env.commands[:] = [0.0, 0.0, 1.0]
+
+    per_env = _fell(env, policy, forward + back + turn, script, recovery=recovery)
+    return _cases_fell([f"{n} {s} m/s {math.degrees(a):.0f} deg" for n, s, a in cases], per_env)
+
+
+def _turn_beside(policy: GaitPolicy) -> dict[str, Any]:
+    cases = [
+        (layout, gap, rate) for layout in ("side", "corner") for gap in TURN_GAPS_M for rate in (1.0, -1.0)
+    ]
+    env = _obstacle_env(policy, len(cases))
+    wall = (1.0, 0.1, 0.5)
+    for i, (layout, gap, _) in enumerate(cases):
+        x, y = env.datas[i].qpos[0:2]
+        env.place_obstacle(i, 0, np.array([x, y + gap + wall[1]]), 0.0, wall)
+        if layout == "corner":
+            env.place_obstacle(i, 1, np.array([x + 0.4 + wall[1], y]), math.pi / 2.0, wall)
+    rates = np.array([rate for _, _, rate in cases])
+    steps = int(round(TURN_S / CONTROL_DT_S))
+
+    def script(k: int, env: GaitEnv) -> None:
+        env.commands[:] = np.column_stack([np.zeros((len(cases), 2)), rates])
+
+    per_env = _fell(env, policy, steps, script)
+    return _cases_fell([f"{lay} gap {g} m, {r:+.0f} rad/s" for lay, g, r in cases], per_env)
+
+
+def _bump_and_turn(policy: GaitPolicy) -> dict[str, Any]:
+    """Walk into an obstacle off-centre, then turn in place, reversing every BUMP_TURN_S (a stuck
+    planner's spin, as in garden_real's fall), walk on into it, and turn again."""
+    cases = [
+        (name, offset, rate) for name in BUMP_OBSTACLES for offset in BUMP_OFFSETS_M for rate in (1.0, -1.0)
+    ]
+    env = _obstacle_env(policy, len(cases))
+    for i, (name, offset, _) in enumerate(cases):
+        half, yaw = BUMP_OBSTACLES[name]
+        x, y = env.datas[i].qpos[0:2]
+        env.place_obstacle(i, 0, np.array([x + BUMP_DISTANCE_M + half[0], y + offset]), yaw, half)
+    rates = np.array([rate for _, _, rate in cases])
+    walk, turn = (int(round(s / CONTROL_DT_S)) for s in (BUMP_WALK_S, BUMP_TURN_S))
+
+    spin = walk + BUMP_REVERSALS * turn
+
+    def script(k: int, env: GaitEnv) -> None:
+        zeros = np.zeros(len(cases))
+        forward = np.column_stack([np.full(len(cases), BUMP_SPEED_MPS), zeros, zeros])
+        if k < walk or spin <= k < spin + walk // 2:
+            env.commands[:] = forward
+        else:
+            sign = 1.0 if ((k - walk) // turn) % 2 == 0 else -1.0
+            env.commands[:] = np.column_stack([zeros, zeros, sign * rates])
+
+    per_env = _fell(env, policy, spin + walk // 2 + 2 * turn, script)
+    return _cases_fell([f"{n} offset {o:+.2f} m, {r:+.0f} rad/s" for n, o, r in cases], per_env)
+
+
+def _obstacle_course(policy: GaitPolicy, *, seeds: int, minutes: float, seed: int) -> dict[str, Any]:
+    """The training task's obstacle layouts and command schedule (holds of 0.5-5 s), on the nominal robot,
+    at seeds training never used: falls and the share of steps in contact."""
+    config = GaitEnvConfig(
+        num_envs=seeds,
+        episode_steps=10**9,
+        ramp_commands=False,  # _run ramps (and recovers) as GaitController does
+        trot=policy.config.trot,
+        residual_scale_rad=policy.config.residual_scale_rad,
+        randomization=RandomizationConfig(enabled=False),
+        noise=NoiseConfig(enabled=False),
+    )
+    env = GaitEnv(config, seed=COURSE_SEED_OFFSET + seed)
+    contact_steps = np.zeros(seeds)
+    original_step = env.step
+
+    def counting_step(actions: FloatArray) -> Any:
+        result = original_step(actions)
+        contact_steps[:] += result[3]["contact_force_n"] > 1.0
+        return result
+
+    def follow(k: int, env: GaitEnv) -> None:
+        env.commands[:] = env.command_targets
+
+    env.step = counting_step  # type: ignore[method-assign]
+    steps = int(round(minutes * 60.0 / CONTROL_DT_S))
+    _, _, per_env = _run(env, policy, steps, follow)
+    return {
+        "seeds": seeds,
+        "minutes_per_seed": minutes,
+        "falls": int(per_env.sum()),
+        "falls_per_seed": per_env.tolist(),
+        "contact_share": float(contact_steps.sum() / (seeds * steps)),
+    }
+
+
+def _command_steps(policy: GaitPolicy, *, seed: int) -> dict[str, Any]:
+    rng = np.random.default_rng(seed + 2)
+    corners = np.array(
+        [[vx, vy, wz] for vx in (-0.5, 0.0, 1.0) for vy in (-0.3, 0.0, 0.3) for wz in (-1.0, 0.0, 1.0)]
+    )
+    sequence = corners[rng.integers(0, len(corners), size=(STEP_COUNT, STEP_ENVS))]
+    env = _nominal_env(STEP_ENVS, trot_policy=policy, seed=seed + 2)
+    hold = int(round(STEP_HOLD_S / CONTROL_DT_S))
+
+    def script(k: int, env: GaitEnv) -> None:
+        env.commands[:] = sequence[min(k // hold, STEP_COUNT - 1)]
+
+    _, _, per_env = _run(env, policy, hold * STEP_COUNT, script)
+    return {"envs": STEP_ENVS, "steps_per_env": STEP_COUNT, "falls": int(per_env.sum())}
+
+
+def _contact(policy: GaitPolicy, *, seeds: int, quick: bool, seed: int) -> dict[str, Any]:
+    run_in, turn, bump = _run_in(policy), _turn_beside(policy), _bump_and_turn(policy)
+    steps = _command_steps(policy, seed=seed)
+    course = _obstacle_course(policy, seeds=seeds, minutes=0.5 if quick else COURSE_MINUTES, seed=seed)
+    return {
+        "run_in": run_in,
+        "turn_beside": turn,
+        "bump_and_turn": bump,
+        "command_steps": steps,
+        "obstacle_course": course,
+        "run_in_fell": run_in["fell"],
+        "turn_beside_fell": turn["fell"],
+        "bump_and_turn_fell": bump["fell"],
+        "command_step_falls": steps["falls"],
+        "course_falls": course["falls"],
+        "falls": run_in["fell"] + turn["fell"] + bump["fell"] + steps["falls"] + course["falls"],
+    }
+
+
 def _inference(policy: GaitPolicy, repeats: int) -> dict[str, float]:
     rng = np.random.default_rng(0)
     obs = rng.normal(size=(1, OBS_DIM))
@@ -246,39 +481,70 @@ def _inference(policy: GaitPolicy, repeats: int) -> dict[str, float]:
     }
 
 
-def bench_one(policy: GaitPolicy, *, seeds: int, quick: bool, seed: int) -> dict[str, Any]:
-    """Every figure for one gait."""
+def bench_one(
+    policy: GaitPolicy, *, seeds: int, quick: bool, seed: int, contact: bool = True
+) -> dict[str, Any]:
+    """Every figure for one gait (the contact section only with ``contact``)."""
     minutes = 0.5 if quick else 10.0
-    return {
+    result = {
         "grid": _grid(policy, quick=quick, seed=seed),
         "random_commands": _random(policy, seeds=seeds, minutes=minutes, seed=seed),
         "pushes": _pushes(policy, seeds=seeds, pushes_per_seed=3 if quick else 10, seed=seed),
         "inference": _inference(policy, 200 if quick else 2000),
     }
+    if contact:
+        result["contact"] = _contact(policy, seeds=seeds, quick=quick, seed=seed)
+    return result
 
 
 def floors_met(result: dict[str, Any]) -> dict[str, bool]:
     """The issue's floors checked on one gait's figures (the random-command run is the tracking figure)."""
     random = result["random_commands"]
-    return {
+    met = {
         "lin_vel_rms": random["lin_vel_rms_mps"] <= FLOORS["lin_vel_rms_mps"],
         "yaw_rate_rms": random["yaw_rate_rms_radps"] <= FLOORS["yaw_rate_rms_radps"],
         "no_falls": random["falls"] <= FLOORS["falls"],
         "push_recovery": result["pushes"]["push_recovery_rate"] >= FLOORS["push_recovery_rate"],
         "inference": result["inference"]["inference_ms"] < FLOORS["inference_ms"],
     }
+    if "contact" in result:
+        met["no_contact_falls"] = result["contact"]["falls"] <= FLOORS["contact_falls"]
+    return met
 
 
 def run_gait_bench(
-    *, checkpoint: Path | str | None = None, seeds: int = 10, quick: bool = False, seed: int = 0
+    *,
+    checkpoint: Path | str | None = None,
+    seeds: int = 10,
+    quick: bool = False,
+    seed: int = 0,
+    contact_only: bool = False,
 ) -> dict[str, Any]:
-    """Benchmark the policy (shipped checkpoint when None) and the reference trot; returns the JSON record."""
+    """Benchmark the policy (shipped checkpoint when None) and the reference trot; returns the JSON record.
+
+    ``contact_only``: only the policy's contact section (to compare checkpoints under contact quickly).
+    """
     policy = load_policy(checkpoint)
     reference = GaitPolicy.reference(policy.config.trot)
     started = time.perf_counter()
+    if contact_only:
+        contact = {"contact": _contact(policy, seeds=seeds, quick=quick, seed=seed)}
+        return {
+            "kind": "gait_contact",
+            "checkpoint": str(checkpoint) if checkpoint is not None else "robots/gait_checkpoints",
+            "checkpoint_info": policy.config.info,
+            "seeds": seeds,
+            "quick": quick,
+            "seed": seed,
+            "floors": FLOORS,
+            "gaits": {"policy": contact, "reference": {}},
+            "floors_met": {"no_contact_falls": contact["contact"]["falls"] <= FLOORS["contact_falls"]},
+            "wall_s": round(time.perf_counter() - started, 1),
+        }
     gaits = {
         "policy": bench_one(policy, seeds=seeds, quick=quick, seed=seed),
-        "reference": bench_one(reference, seeds=seeds, quick=quick, seed=seed),
+        # The reference trot falls on open ground already: the contact section is the policy's only.
+        "reference": bench_one(reference, seeds=seeds, quick=quick, seed=seed, contact=False),
     }
     return {
         "kind": "gait",
@@ -307,6 +573,11 @@ ROWS = (
     ("torque saturation", "random_commands", "torque_saturation_fraction", "{:.3f}"),
     ("mean trunk height (m)", "random_commands", "mean_trunk_height_m", "{:.3f}"),
     ("pushes recovered", "pushes", "push_recovery_rate", "{:.2f}"),
+    ("contact: run-in cases fell", "contact", "run_in_fell", "{}"),
+    ("contact: turn-beside cases fell", "contact", "turn_beside_fell", "{}"),
+    ("contact: bump-and-turn cases fell", "contact", "bump_and_turn_fell", "{}"),
+    ("contact: command-step falls", "contact", "command_step_falls", "{}"),
+    ("contact: obstacle-course falls", "contact", "course_falls", "{}"),
     ("inference (ms)", "inference", "inference_ms", "{:.3f}"),
     ("inference + prior (ms)", "inference", "inference_with_prior_ms", "{:.3f}"),
 )
@@ -314,14 +585,28 @@ ROWS = (
 
 def format_table(result: dict[str, Any]) -> str:
     """A plain-text table: one row per figure, policy beside reference."""
-    lines = [f"{'figure':30s} {'policy':>10s} {'reference':>10s}"]
+    lines = [f"{'figure':34s} {'policy':>10s} {'reference':>10s}"]
     for label, section, key, fmt in ROWS:
-        cells = [fmt.format(result["gaits"][g][section][key]) for g in ("policy", "reference")]
-        lines.append(f"{label:30s} {cells[0]:>10s} {cells[1]:>10s}")
+        cells = [
+            fmt.format(result["gaits"][g][section][key]) if section in result["gaits"][g] else "-"
+            for g in ("policy", "reference")
+        ]
+        lines.append(f"{label:34s} {cells[0]:>10s} {cells[1]:>10s}")
     met = ", ".join(f"{k}={'yes' if v else 'NO'}" for k, v in result["floors_met"].items())
     lines.append(f"policy floors: {met}")
-    minutes = result["gaits"]["policy"]["random_commands"]["minutes_per_seed"]
-    lines.append(f"seeds={result['seeds']} x {minutes} min random commands; wall {result['wall_s']} s")
+    policy = result["gaits"]["policy"]
+    if "random_commands" in policy:
+        minutes = policy["random_commands"]["minutes_per_seed"]
+        lines.append(f"seeds={result['seeds']} x {minutes} min random commands; wall {result['wall_s']} s")
+    if "contact" in policy:
+        course = policy["contact"]["obstacle_course"]
+        fell = [
+            c for k in ("run_in", "turn_beside", "bump_and_turn") for c in policy["contact"][k]["fell_cases"]
+        ]
+        lines.append(
+            f"obstacle course: {course['seeds']} x {course['minutes_per_seed']} min, "
+            f"{course['contact_share']:.0%} of steps in contact; cases that fell: {', '.join(fell) or 'none'}"
+        )
     return "\n".join(lines)
 
 

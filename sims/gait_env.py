@@ -8,6 +8,12 @@ Each environment owns its MjModel copy so that domain randomisation (foot fricti
 centre of mass, motor strength) can differ per environment; latency is applied per environment by holding
 the previous targets for the first ``latency_substeps`` physics steps of a control period.
 
+Obstacles (:class:`ObstacleConfig`): each environment has ``OBSTACLE_SLOTS`` mocap boxes. At every command
+change they are laid out around the robot as what a mission does to it: a box or wall in the commanded
+path at 0.4-1.5 m (it walks into it at speed and keeps pushing), a long box beside the trunk (a turn in
+place sweeps the trunk's corners into it) and a loose box nearby; sizes, yaw and friction are random, and
+a layout that would start in penetration is not used. Unused slots are parked far below the floor.
+
 One control step = 20 ms = 10 physics steps at 2 ms, the gait rate of the behaviour tree.
 """
 
@@ -31,6 +37,7 @@ from robots.gait_policy import (
     TrotConfig,
     TrotPrior,
     build_observation,
+    ramp_command,
 )
 from robots.go1 import GO1_XML_PATH, LEG_NAMES, NUM_JOINTS, TRUNK_BODY_NAME, load_go1_spec
 from semexp_bt.core.types import FloatArray, InvalidInputError
@@ -47,10 +54,19 @@ CONTACT_MARGIN_M = 0.01
 FALL_TILT_RAD = 1.0
 FALL_HEIGHT_M = 0.15
 #: Extra inputs of the (training-only) critic: body linear velocity (3), trunk height, friction,
-#: motor strength, added trunk mass, latency.
-CRITIC_EXTRA_DIM = 8
+#: motor strength, added trunk mass, latency, obstacle contact force on the robot.
+CRITIC_EXTRA_DIM = 9
 CRITIC_OBS_DIM = OBS_DIM + CRITIC_EXTRA_DIM
 FLOOR_XML = '<geom name="floor" type="plane" size="0 0 0.05" contype="0" conaffinity="4"/>'
+#: Mocap obstacle boxes per environment: in the path, beside the trunk, loose.
+OBSTACLE_SLOTS = 3
+OBSTACLE_NAME = "gait_obstacle{}"
+#: Where an unused obstacle waits (far below the floor: it touches nothing).
+PARKED_OBSTACLE_POS = (0.0, 0.0, -50.0)
+#: A layout whose obstacle comes closer than this to any robot geom is not used (m).
+OBSTACLE_MIN_GAP_M = 0.03
+#: Contact force scale in the critic input (N).
+CONTACT_FORCE_SCALE_N = 100.0
 
 
 @dataclass(frozen=True)
@@ -95,6 +111,45 @@ class RandomizationConfig:
 
 
 @dataclass(frozen=True)
+class ObstacleConfig:
+    """Boxes the robot bumps into (see the module docstring); ``enabled=False`` gives open flat ground.
+
+    Attributes:
+        probability: share of command segments that get a layout (the others are on open ground).
+        path_distance_m: trunk centre to the near face of the box in the commanded path.
+        path_half_width_m: that box's half width across the path (0.15: a post; 1.2: a wall).
+        path_half_depth_m: its half depth along the path.
+        half_height_m: half height of a tall box (0.1: a stool; 0.5: a wall).
+        low_half_height_m: half height of a low box (a pallet, a kerb: 14 cm is above the trot's foot lift).
+        low_probability: share of boxes that are low.
+        raised_bottom_m: the path box's underside above the floor when it is raised (a car body, a
+            loading dock, a shelf: the trunk hits it and the legs pass under).
+        raised_probability: share of path boxes that are raised.
+        side_gap_m: trunk centre line to the near face of the box beside the robot.
+        side_half_length_m: that box's half length along the trunk.
+        loose_distance_m: trunk centre to the loose box's centre.
+        friction: sliding friction of the boxes (the scenes' furniture has 1.0).
+        yaw_jitter_rad: the path and side boxes are turned by up to this from square.
+    """
+
+    enabled: bool = True
+    probability: float = 0.7
+    path_distance_m: tuple[float, float] = (0.4, 1.5)
+    path_half_width_m: tuple[float, float] = (0.15, 1.2)
+    path_half_depth_m: tuple[float, float] = (0.05, 0.3)
+    half_height_m: tuple[float, float] = (0.1, 0.5)
+    low_half_height_m: tuple[float, float] = (0.03, 0.08)
+    low_probability: float = 0.35
+    raised_bottom_m: tuple[float, float] = (0.12, 0.25)
+    raised_probability: float = 0.15
+    side_gap_m: tuple[float, float] = (0.2, 0.45)
+    side_half_length_m: tuple[float, float] = (0.3, 1.0)
+    loose_distance_m: tuple[float, float] = (0.6, 1.2)
+    friction: tuple[float, float] = (0.3, 1.0)
+    yaw_jitter_rad: float = 0.6
+
+
+@dataclass(frozen=True)
 class NoiseConfig:
     """Uniform observation noise half-widths (in the observation's own units before scaling)."""
 
@@ -107,21 +162,38 @@ class NoiseConfig:
 
 @dataclass(frozen=True)
 class GaitEnvConfig:
-    """Everything that defines the training task."""
+    """Everything that defines the training task.
+
+    Attributes:
+        command_resample_s: the longest a command is held (inf: never resampled, as the benchmark does).
+        min_command_hold_s: the shortest; each hold is uniform in between, per environment. A mission's
+            planner changes its twist every second or so (a spin reverses, a subgoal switches from a turn
+            to a walk): short holds put those changes into training.
+        ramp_commands: the policy sees each new command ramped within ``COMMAND_ACCEL_LIMITS``, as
+            :class:`robots.gait_policy.GaitController` ramps it at run time (False: the caller ramps).
+    """
 
     num_envs: int = 32
     episode_steps: int = 1000
     command_resample_s: float = 5.0
+    min_command_hold_s: float = 0.5
+    ramp_commands: bool = True
     zero_command_probability: float = 0.15
     residual_scale_rad: float = RESIDUAL_SCALE_RAD
     trot: TrotConfig = field(default_factory=TrotConfig)
     reward: RewardScales = field(default_factory=RewardScales)
     randomization: RandomizationConfig = field(default_factory=RandomizationConfig)
     noise: NoiseConfig = field(default_factory=NoiseConfig)
+    obstacles: ObstacleConfig = field(default_factory=ObstacleConfig)
 
     def __post_init__(self) -> None:
         if self.num_envs < 1:
             raise InvalidInputError(f"GaitEnvConfig.num_envs must be >= 1, got {self.num_envs}")
+        if not 0.0 < self.min_command_hold_s <= self.command_resample_s:
+            raise InvalidInputError(
+                f"GaitEnvConfig: need 0 < min_command_hold_s ({self.min_command_hold_s}) <= "
+                f"command_resample_s ({self.command_resample_s})"
+            )
         if self.episode_steps < 1:
             raise InvalidInputError(f"GaitEnvConfig.episode_steps must be >= 1, got {self.episode_steps}")
 
@@ -168,9 +240,24 @@ def reward_terms(
     }
 
 
+def _obstacle_xml() -> str:
+    x, y, z = PARKED_OBSTACLE_POS
+    return "".join(
+        f'<body name="{OBSTACLE_NAME.format(k)}" mocap="true" pos="{x} {y} {z}">'
+        f'<geom name="{OBSTACLE_NAME.format(k)}" type="box" size="0.1 0.1 0.1" contype="0" conaffinity="4"'
+        ' rgba="0.6 0.5 0.4 1"/></body>'
+        for k in range(OBSTACLE_SLOTS)
+    )
+
+
 def _build_model() -> mujoco.MjModel:
-    xml = GO1_XML_PATH.read_text().replace("<worldbody>", "<worldbody>" + FLOOR_XML, 1)
+    xml = GO1_XML_PATH.read_text().replace("<worldbody>", "<worldbody>" + FLOOR_XML + _obstacle_xml(), 1)
     return mujoco.MjModel.from_xml_string(xml)
+
+
+def _yaw_of(quat_wxyz: FloatArray) -> float:
+    w, x, y, z = quat_wxyz
+    return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
 
 
 class GaitEnv:
@@ -196,14 +283,29 @@ class GaitEnv:
             [mujoco.mj_name2id(base, mujoco.mjtObj.mjOBJ_GEOM, f"{leg}_foot") for leg in LEG_NAMES]
         )
         self._home = base.key("home").qpos.copy()
-        self._standing = self.spec.standing_pose_rad.copy()
-        self._command_resample_steps = (
-            int(round(self.config.command_resample_s / CONTROL_DT_S))
-            if math.isfinite(self.config.command_resample_s)
-            else 0
+        self._obstacle_geoms = np.array(
+            [
+                mujoco.mj_name2id(base, mujoco.mjtObj.mjOBJ_GEOM, OBSTACLE_NAME.format(k))
+                for k in range(OBSTACLE_SLOTS)
+            ]
         )
+        self._obstacle_mocap = np.array(
+            [
+                base.body_mocapid[mujoco.mj_name2id(base, mujoco.mjtObj.mjOBJ_BODY, OBSTACLE_NAME.format(k))]
+                for k in range(OBSTACLE_SLOTS)
+            ]
+        )
+        trunk_subtree = [b for b in range(base.nbody) if self._is_in_trunk_subtree(base, b)]
+        self._robot_geoms = np.array([g for g in range(base.ngeom) if base.geom_bodyid[g] in trunk_subtree])
+        self._robot_geom_set = frozenset(int(g) for g in self._robot_geoms)
+        self._obstacle_geom_set = frozenset(int(g) for g in self._obstacle_geoms)
+        self._standing = self.spec.standing_pose_rad.copy()
+        self._resamples_commands = math.isfinite(self.config.command_resample_s)
         n = self.num_envs
+        #: What the policy is asked now (ramped towards ``command_targets`` when ``ramp_commands``).
         self.commands = np.zeros((n, 3))
+        self.command_targets = np.zeros((n, 3))
+        self.next_command_step = np.zeros(n, dtype=np.int64)
         self.phase = np.zeros(n)
         self.last_action = np.zeros((n, ACTION_DIM))
         self.prev_targets = np.tile(self._standing, (n, 1))
@@ -215,6 +317,7 @@ class GaitEnv:
         self.friction = np.ones(n)
         self.motor_strength = np.ones(n)
         self.trunk_added_mass = np.zeros(n)
+        self.contact_force_n = np.zeros(n)
         # Physical state read after every step.
         self.qpos = np.zeros((n, base.nq))
         self.qvel = np.zeros((n, base.nv))
@@ -225,6 +328,13 @@ class GaitEnv:
         for i in range(n):
             self._reset_env(i)
         self._read_state()
+
+    def _is_in_trunk_subtree(self, model: mujoco.MjModel, body: int) -> bool:
+        while body > 0:
+            if body == self._trunk:
+                return True
+            body = int(model.body_parentid[body])
+        return False
 
     # ------------------------------------------------------------------ reset and randomisation
 
@@ -273,7 +383,11 @@ class GaitEnv:
         mask[one_axis, axis[one_axis]] = 1.0
         commands *= mask
         commands[self.rng.random(count) < self.config.zero_command_probability] = 0.0
-        self.commands[ids] = commands
+        self.command_targets[ids] = commands
+        if not self.config.ramp_commands:
+            self.commands[ids] = commands
+        hold_s = self.rng.uniform(self.config.min_command_hold_s, self.config.command_resample_s, size=count)
+        self.next_command_step[ids] = self.episode_step[ids] + np.maximum(1, np.round(hold_s / CONTROL_DT_S))
 
     def _reset_env(self, i: int) -> None:
         self._randomise(i)
@@ -295,8 +409,115 @@ class GaitEnv:
         self.air_time[i] = 0.0
         self.last_contact[i] = True
         self.next_push_step[i] = self._push_delay_steps()
-        if self._command_resample_steps:
+        if self._resamples_commands:
+            self.commands[i] = 0.0
             self._sample_commands(np.array([i]))
+        self._lay_out_obstacles(i)
+
+    # ------------------------------------------------------------------ obstacles
+
+    def _park_obstacles(self, i: int) -> None:
+        self.datas[i].mocap_pos[self._obstacle_mocap] = PARKED_OBSTACLE_POS
+
+    def place_obstacle(
+        self,
+        i: int,
+        slot: int,
+        centre_xy: FloatArray,
+        yaw: float,
+        half_size: tuple[float, float, float],
+        *,
+        bottom_m: float = 0.0,
+    ) -> None:
+        """Put obstacle ``slot`` of environment ``i`` at ``centre_xy`` (world), turned by ``yaw``, its
+        underside ``bottom_m`` above the floor."""
+        model, data = self.models[i], self.datas[i]
+        geom, mocap = int(self._obstacle_geoms[slot]), int(self._obstacle_mocap[slot])
+        model.geom_size[geom] = half_size
+        model.geom_rbound[geom] = float(np.linalg.norm(half_size))
+        model.geom_aabb[geom] = [0.0, 0.0, 0.0, *half_size]
+        data.mocap_pos[mocap] = [centre_xy[0], centre_xy[1], bottom_m + half_size[2]]
+        data.mocap_quat[mocap] = [math.cos(yaw / 2.0), 0.0, 0.0, math.sin(yaw / 2.0)]
+        mujoco.mj_kinematics(model, data)
+
+    def _lay_out_obstacles(self, i: int) -> None:
+        """Boxes around robot ``i`` for its current command (or none), never starting in penetration."""
+        cfg = self.config.obstacles
+        self._park_obstacles(i)
+        if not cfg.enabled or self.rng.random() >= cfg.probability:
+            return
+        rng, model, data = self.rng, self.models[i], self.datas[i]
+        position = data.qpos[0:2].copy()
+        heading = _yaw_of(data.qpos[3:7])
+        vx, vy, _ = self.command_targets[i] if self._resamples_commands else self.commands[i]
+        path_angle = heading + (
+            math.atan2(vy, vx) if math.hypot(vx, vy) > 0.1 else rng.uniform(-np.pi, np.pi)
+        )
+
+        def along(angle: float, distance: float) -> FloatArray:
+            return position + distance * np.array([math.cos(angle), math.sin(angle)])
+
+        def height() -> float:
+            low = rng.random() < cfg.low_probability
+            return float(rng.uniform(*(cfg.low_half_height_m if low else cfg.half_height_m)))
+
+        depth = float(rng.uniform(*cfg.path_half_depth_m))
+        raised = rng.random() < cfg.raised_probability
+        self.place_obstacle(
+            i,
+            0,
+            along(path_angle, float(rng.uniform(*cfg.path_distance_m)) + depth),
+            path_angle + rng.uniform(-cfg.yaw_jitter_rad, cfg.yaw_jitter_rad),
+            (
+                depth,
+                float(rng.uniform(*cfg.path_half_width_m)),
+                float(rng.uniform(*cfg.half_height_m)) if raised else height(),
+            ),
+            bottom_m=float(rng.uniform(*cfg.raised_bottom_m)) if raised else 0.0,
+        )
+        side = heading + rng.choice([-0.5, 0.5]) * np.pi
+        side_half_width = float(rng.uniform(0.05, 0.3))
+        side_centre = along(side, float(rng.uniform(*cfg.side_gap_m)) + side_half_width) + rng.uniform(
+            -0.3, 0.3
+        ) * np.array([math.cos(heading), math.sin(heading)])
+        self.place_obstacle(
+            i,
+            1,
+            side_centre,
+            heading + rng.uniform(-0.5, 0.5) * cfg.yaw_jitter_rad,
+            (float(rng.uniform(*cfg.side_half_length_m)), side_half_width, height()),
+        )
+        loose = rng.uniform(0.1, 0.3, size=2)
+        self.place_obstacle(
+            i,
+            2,
+            along(rng.uniform(-np.pi, np.pi), float(rng.uniform(*cfg.loose_distance_m))),
+            rng.uniform(-np.pi, np.pi),
+            (float(loose[0]), float(loose[1]), height()),
+        )
+        model.geom_friction[self._obstacle_geoms, 0] = rng.uniform(*cfg.friction, size=OBSTACLE_SLOTS)
+        mujoco.mj_kinematics(model, data)
+        for slot, geom in enumerate(self._obstacle_geoms):
+            gap = min(
+                mujoco.mj_geomDistance(model, data, int(g), int(geom), OBSTACLE_MIN_GAP_M, None)
+                for g in self._robot_geoms
+            )
+            if gap < OBSTACLE_MIN_GAP_M:
+                data.mocap_pos[self._obstacle_mocap[slot]] = PARKED_OBSTACLE_POS
+        mujoco.mj_kinematics(model, data)
+
+    def _obstacle_contact_force(self, i: int) -> float:
+        """Total normal force (N) between robot ``i`` and its obstacles now."""
+        model, data = self.models[i], self.datas[i]
+        if data.ncon == 0:
+            return 0.0
+        pairs = data.contact.geom[: data.ncon]
+        hits = np.flatnonzero(np.isin(pairs, self._obstacle_geoms).any(axis=1))
+        total, force = 0.0, np.zeros(6)
+        for index in hits:
+            mujoco.mj_contactForce(model, data, int(index), force)
+            total += abs(float(force[0]))
+        return total
 
     def _push_delay_steps(self) -> int:
         low, high = self.config.randomization.push_interval_s
@@ -318,6 +539,7 @@ class GaitEnv:
             self.rotation[i] = data.xmat[self._trunk].reshape(3, 3)
             self.feet_pos[i] = data.geom_xpos[self._feet]
             self.torques[i] = data.actuator_force
+            self.contact_force_n[i] = self._obstacle_contact_force(i)
 
     @property
     def gravity_body(self) -> FloatArray:
@@ -363,6 +585,7 @@ class GaitEnv:
                 self.motor_strength - 1.0,
                 self.trunk_added_mass,
                 self.latency / SUBSTEPS,
+                np.minimum(self.contact_force_n / CONTACT_FORCE_SCALE_N, 5.0),
             ]
         )
         return np.concatenate([self.observe(noisy=False), extra], axis=1)
@@ -458,15 +681,20 @@ class GaitEnv:
         truncated = (self.episode_step >= self.config.episode_steps) & ~terminated
         done = terminated | truncated
 
-        if self._command_resample_steps:
-            resample = np.flatnonzero((self.episode_step % self._command_resample_steps) == 0)
+        if self._resamples_commands:
+            resample = np.flatnonzero((self.episode_step >= self.next_command_step) & ~done)
             self._sample_commands(resample)
+            for env_id in resample:
+                self._lay_out_obstacles(int(env_id))
+            if self.config.ramp_commands:
+                self.commands = ramp_command(self.commands, self.command_targets)
         info: dict[str, AnyArray] = {
             "terminated": terminated,
             "truncated": truncated,
             "base_lin_vel_body": lin_vel,
             "yaw_rate": ang_vel[:, 2].copy(),
             "power_w": power,
+            "contact_force_n": self.contact_force_n.copy(),
             **{f"reward/{name}": value for name, value in terms.items()},
         }
         if np.any(done):

@@ -1,11 +1,12 @@
 """The RL gait: trot prior IK, observation, policy inference (numpy vs torch), checkpoints, the env's
-reward terms, PPO's GAE, and the controller on the dynamic Go1."""
+reward terms and the controller on the dynamic Go1 (training and obstacles: tests/test_gait_training.py)."""
 
 from __future__ import annotations
 
 import json
 import math
 
+import mujoco
 import numpy as np
 import pytest
 import torch
@@ -16,6 +17,7 @@ from robots.gait_policy import (
     ACTION_DIM,
     CONFIG_FILE,
     OBS_DIM,
+    GaitController,
     GaitPolicy,
     NumpyActor,
     PolicyConfig,
@@ -35,7 +37,6 @@ from robots.mujoco_backend import MujocoRobot
 from semexp_bt.core.scene import SceneSpec
 from semexp_bt.core.types import InvalidInputError, Pose2D, Twist
 from sims.gait_env import GaitEnv, GaitEnvConfig, NoiseConfig, RandomizationConfig, reward_terms
-from sims.gait_train import RunningNormalizer, compute_gae
 
 SPEC = load_go1_spec()
 
@@ -194,29 +195,6 @@ def test_reward_terms_on_hand_made_states() -> None:
     np.testing.assert_allclose(terms["action_magnitude"], [12.0, 12.0, 12.0])
 
 
-def test_gae_hand_worked() -> None:
-    # gamma 0.9, lambda 0.8; the episode ends after step 1.
-    # t=2: delta = 1 + 0.9*0.5 - 0.5 = 0.95 -> A = 0.95
-    # t=1: delta = 1 - 0.5 = 0.5 (no bootstrap) -> A = 0.5
-    # t=0: delta = 0.95 -> A = 0.95 + 0.9*0.8*0.5 = 1.31
-    advantages, returns = compute_gae(
-        rewards=np.ones((3, 1)), values=np.full((3, 1), 0.5), dones=np.array([[0.0], [1.0], [0.0]]),
-        last_values=np.array([0.5]), gamma=0.9, lam=0.8,
-    )  # fmt: skip
-    np.testing.assert_allclose(advantages[:, 0], [1.31, 0.5, 0.95])
-    np.testing.assert_allclose(returns[:, 0], [1.81, 1.0, 1.45])
-
-
-def test_running_normalizer_matches_numpy() -> None:
-    rng = np.random.default_rng(3)
-    data = rng.normal(2.0, 3.0, size=(300, 4))
-    norm = RunningNormalizer(4)
-    for chunk in np.split(data, 3):
-        norm.update(chunk)
-    np.testing.assert_allclose(norm.mean, data.mean(axis=0), atol=1e-4)
-    np.testing.assert_allclose(norm.var, data.var(axis=0), rtol=1e-3)
-
-
 def test_env_steps_and_detects_falls() -> None:
     config = GaitEnvConfig(
         num_envs=2, randomization=RandomizationConfig(enabled=False), noise=NoiseConfig(enabled=False)
@@ -304,3 +282,77 @@ def test_bench_quick_runs() -> None:
     result = run_gait_bench(seeds=1, quick=True)
     assert set(result["gaits"]) == {"policy", "reference"}
     assert "pushes recovered" in format_table(result)
+
+
+def test_bench_contact_only_runs_the_contact_section_alone_and_tabulates_it(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    import sims.gait_bench as bench
+
+    def not_in_a_contact_only_run(*args: object, **kwargs: object) -> None:
+        raise AssertionError("a contact-only run benchmarked open ground")
+
+    cases = {"cases": 2, "fell": 1, "fell_cases": ["wall 1.0 m/s 0 deg"]}
+    contact = {
+        "run_in": cases, "turn_beside": {"cases": 1, "fell": 0, "fell_cases": []},
+        "bump_and_turn": {"cases": 1, "fell": 0, "fell_cases": []},
+        "command_steps": {"envs": 1, "steps_per_env": 2, "falls": 0},
+        "obstacle_course": {"seeds": 1, "minutes_per_seed": 2.0, "falls": 2, "contact_share": 0.12},
+        "run_in_fell": 1, "turn_beside_fell": 0, "bump_and_turn_fell": 0, "command_step_falls": 0,
+        "course_falls": 2, "falls": 3,
+    }  # fmt: skip
+    for name in ("_grid", "_random", "_pushes"):
+        monkeypatch.setattr(bench, name, not_in_a_contact_only_run)
+    monkeypatch.setattr(bench, "_contact", lambda policy, **kwargs: contact)
+    result = bench.run_gait_bench(seeds=1, contact_only=True)
+    table = bench.format_table(result)
+    print(table)
+    assert result["floors_met"] == {"no_contact_falls": False}
+    assert result["gaits"]["policy"] == {"contact": contact}
+    assert "contact: obstacle-course falls" in table and "wall 1.0 m/s 0 deg" in table
+    assert "random commands" not in table
+
+
+def _gravity_tilted(angle_rad: float) -> np.ndarray:
+    """Projected gravity of a trunk rolled by ``angle_rad``."""
+    return np.array([[0.0, math.sin(angle_rad), -math.cos(angle_rad)]])
+
+
+def test_near_fall_recovery_holds_until_level_for_the_hold_time() -> None:
+    from robots.gait_policy import (
+        NEAR_FALL_TILT_RAD,
+        RECOVERED_TILT_RAD,
+        RECOVERY_HOLD_S,
+        NearFallRecovery,
+    )
+
+    recovery = NearFallRecovery(1, control_dt_s=0.02)
+    assert not recovery.update(_gravity_tilted(NEAR_FALL_TILT_RAD - 0.05))[0]
+    assert recovery.update(_gravity_tilted(NEAR_FALL_TILT_RAD + 0.05))[0]
+    assert recovery.near_falls == 1
+    # Between the two thresholds the robot is not yet level: the hold does not start.
+    for _ in range(200):
+        assert recovery.update(_gravity_tilted(0.5 * (NEAR_FALL_TILT_RAD + RECOVERED_TILT_RAD)))[0]
+    hold_ticks = int(round(RECOVERY_HOLD_S / 0.02))
+    for _ in range(hold_ticks - 1):
+        assert recovery.update(_gravity_tilted(0.0))[0]
+    assert not recovery.update(_gravity_tilted(0.0))[0]
+    assert recovery.near_falls == 1
+
+
+def test_controller_stops_walking_through_a_near_fall() -> None:
+    robot = _flat_robot()
+    try:
+        controller = GaitController(load_policy())
+        for _ in range(100):
+            controller(robot, Twist(0.8, 0.0, 0.0))
+            robot.advance(0.02)
+        assert controller.command[0] == pytest.approx(0.8)
+        # Tip the trunk by 0.4 rad about x: the next ticks ramp the command down instead of walking on.
+        robot.data.qpos[3:7] = [math.cos(0.2), math.sin(0.2), 0.0, 0.0]
+        mujoco.mj_forward(robot.model, robot.data)  # the IMU's orientation sensor reads the new pose
+        controller(robot, Twist(0.8, 0.0, 0.0))
+        assert controller.recovering and controller.near_falls == 1
+        assert controller.command[0] < 0.8
+    finally:
+        robot.close()

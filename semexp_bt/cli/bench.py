@@ -110,6 +110,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     gait.add_argument("--seed", type=seed, default=0)
     gait.add_argument("--checkpoint", type=Path, default=None, help="default: robots/gait_checkpoints")
     gait.add_argument("--quick", action="store_true", help="2 seeds x 30 s, small grid (smoke test)")
+    gait.add_argument(
+        "--contact-only", action="store_true", help="only the policy's contact section (falls under contact)"
+    )
 
     missions = sub.add_parser("missions", help="a grid of episodes, in parallel and resumable, with a report")
     missions.add_argument(
@@ -260,7 +263,11 @@ def run(args: argparse.Namespace) -> int:
 
         seeds = min(args.seeds, 2) if args.quick else args.seeds
         gait_result = run_gait_bench(
-            checkpoint=args.checkpoint, seeds=seeds, quick=args.quick, seed=args.seed
+            checkpoint=args.checkpoint,
+            seeds=seeds,
+            quick=args.quick,
+            seed=args.seed,
+            contact_only=args.contact_only,
         )
         print(gait_table(gait_result))
         if args.json is not None:
