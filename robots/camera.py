@@ -3,7 +3,9 @@
 The D435i colour stream at 640x480 has fx = fy of about 615 px, i.e. a 42.5 deg vertical and 55 deg
 horizontal field of view (the 69 x 42 deg of the data sheet is the 16:9 1920x1080 mode; 4:3 crops the
 sides). Depth is aligned to colour and valid from 0.3 m to 10 m; anything outside reads 0, as
-``rs2::align`` gives for no return.
+``rs2::align`` gives for no return. Depth comes in whole millimetres, as the D435i's 16UC1 stream (and
+the ROS 2 bridge, which publishes that stream) carries it: the mission sees the same depth in process and
+over ROS 2, to the bit (``robots.ros2_messages.round_depth_to_millimetres``).
 
 Rendering runs at the native size divided by ``CameraConfig.downscale`` (default 2: 320x240) and the
 intrinsics scale with it. One ``observe`` is two GL passes: a lit colour pass whose depth buffer is read
@@ -31,6 +33,7 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
+from robots.ros2_messages import round_depth_to_millimetres
 from semexp_bt.core.types import (
     BACKGROUND_OBJECT_ID,
     CameraIntrinsics,
@@ -311,7 +314,7 @@ class RgbdCamera:
     def _depth_metres(self) -> npt.NDArray[np.float32]:
         depth = depth_from_reversed_z(np.flipud(self._depth), near_m=self._near_m, far_m=self._far_m)
         valid = (depth >= self._config.min_depth_m) & (depth <= self._config.max_depth_m)
-        return np.where(valid, depth, 0.0).astype(np.float32)
+        return round_depth_to_millimetres(np.where(valid, depth, 0.0).astype(np.float32))
 
     def _segmentation_pass(self) -> npt.NDArray[np.int32]:
         self._pass(flat=True, id_colours=True, read_rgb=True, read_depth=False)
@@ -401,7 +404,7 @@ class RgbdCamera:
         )
         depth = np.full((self._config.height_px, self._config.width_px), np.nan, dtype=np.float32)
         depth[rays.rows, rays.cols] = np.where(valid, depth_along_axis, 0.0)
-        return depth
+        return round_depth_to_millimetres(depth)
 
     def _pixel_rays(self, pixel_grids: tuple[PixelGrid, ...]) -> _PixelRays:
         """The rays through the union of the grids' pixels."""

@@ -118,7 +118,7 @@ def image_to_depth_m(msg: Any) -> npt.NDArray[np.float32]:
     if encoding in ("16UC1", "MONO16"):
         rows = _pixels(msg, channels=1, itemsize=2, what="depth image")
         millimetres = _typed(rows, "u2", big_endian=big_endian, height=height)
-        return millimetres.astype(np.float32) * np.float32(1e-3)
+        return millimetres_to_depth_m(millimetres)
     if encoding == "32FC1":
         rows = _pixels(msg, channels=1, itemsize=4, what="depth image")
         metres = _typed(rows, "f4", big_endian=big_endian, height=height).astype(np.float32)
@@ -152,6 +152,20 @@ def fill_rgb_image(msg: Any, rgb: npt.NDArray[np.uint8], *, stamp_s: float, fram
         raise MessageError(f"colour frame must be (H, W, 3) uint8, got {rgb.shape} {rgb.dtype}")
     fill_header(msg.header, stamp_s=stamp_s, frame_id=frame_id)
     _fill_image(msg, rgb, encoding="rgb8", channels=3)
+
+
+def millimetres_to_depth_m(millimetres: npt.NDArray[np.integer[Any]]) -> npt.NDArray[np.float32]:
+    """16UC1 millimetres -> float32 metres (0 stays 0: no depth)."""
+    return millimetres.astype(np.float32) * np.float32(1e-3)
+
+
+def round_depth_to_millimetres(depth_m: npt.NDArray[np.floating[Any]]) -> npt.NDArray[np.float32]:
+    """Depth as a 16UC1 stream carries it (a D435i's driver, the bridge): the metres that
+    :func:`depth_to_millimetres` then :func:`millimetres_to_depth_m` give, to the bit; NaN (not
+    measured) stays NaN."""
+    depth = np.asarray(depth_m)
+    rounded = millimetres_to_depth_m(depth_to_millimetres(depth))
+    return np.where(np.isnan(depth), np.float32(np.nan), rounded).astype(np.float32)
 
 
 def depth_to_millimetres(depth_m: npt.NDArray[np.floating[Any]]) -> npt.NDArray[np.uint16]:
