@@ -65,7 +65,7 @@ class FollowPath(SemExpBehaviour):
     facing_tolerance_deg: float = param(
         "float",
         doc="on arrival, turn until the subgoal is this close to straight ahead, degrees",
-        default=17.0,
+        default=6.0,
         gt=0.0,
         le=180.0,
     )

@@ -4,10 +4,13 @@ Semantics:
 
 - RUNNING: while the accumulated yaw (odometry) is short of ``angle_deg``, commanding up to
   ``yaw_rate_radps`` (``cmd_twist``, ``cmd_stamp_s``) as long as the next ``lookahead_s`` of the turn
-  keeps the oriented footprint clear of lethal cells of ``local_map`` (the corners of the Go1's body
-  sweep a circle of 0.41 m).
+  keeps the oriented footprint clear of lethal cells of ``local_map`` and sweeps only observed cells
+  (the corners of the Go1's body sweep a circle of 0.41 m; the camera never sees the floor that close, so
+  what lies there is known from having looked at it earlier, from the footprint's own trail, or, at the
+  start pose, assumed free: ``semexp_bt.nav.controller``'s safety rules).
 - SUCCESS: once turned (within 3 degrees); it commands a zero twist.
-- FAILURE: the turn would sweep into an obstacle (it stops first), or ``timeout_s`` has passed.
+- FAILURE: the turn would sweep into an obstacle or over never-observed floor (it stops first), or
+  ``timeout_s`` has passed.
 - Halted while RUNNING: it commands a zero twist.
 
 The camera sees around while it turns, so the costmap learns what lies beside and behind the robot.

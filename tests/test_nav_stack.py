@@ -250,3 +250,73 @@ def test_the_commanded_motion_is_always_admissible(x: float, y: float, yaw: floa
 
 
 _POSTS_MAP = costmap_at(Pose2D(0.0, 0.0, 0.0), posts=((1, 1.2, 0.6, 0.2, 0.6), (2, 1.0, -0.9, 0.25, 0.6)))[0]
+
+
+# ------------------------------------------------------------------ issue #17, second round
+def corridor_costmap(*, free_cells: int) -> Costmap:
+    """A known 8 m x 8 m floor with a corridor along x whose free width is ``free_cells`` cells (from
+    y = -0.30 m up), walled on both sides."""
+    occupied = np.zeros((160, 160), dtype=bool)
+    occupied[:74, :] = True
+    occupied[74 + free_cells :, :] = True
+    costmap = Costmap(CostmapConfig(), footprint=FOOTPRINT, origin_xy=(0.0, 0.0))
+    costmap.set_known(occupied, lower_left_xy=(-4.0, -4.0), resolution_m=0.05)
+    return costmap
+
+
+def test_the_clearance_is_the_rectangles_own_not_a_disc_covers() -> None:
+    """In a 0.55 m corridor (wall cell centres 0.60 m apart) the centred 0.30 m body has 0.15 m each side:
+    a straight walk is admissible. The first round's disc cover said 0.12 m there and refused it."""
+    costmap = corridor_costmap(free_cells=11)
+    pose = Pose2D(-2.0, -0.025, 0.0)
+    clearance = float(footprint_clearance(costmap, np.array([-2.0]), np.array([-0.025]), np.array([0.0]))[0])
+    assert clearance == pytest.approx(0.15, abs=0.005)
+    centres, radius = FOOTPRINT.covering_discs
+    disc_clearance = float(costmap.distance_at(centres + np.array([-2.0, -0.025])).min()) - radius
+    assert disc_clearance < SafetyRules().min_clearance_m <= clearance
+    states, commands = rollout(
+        pose, Twist(), np.array([[0.5, 0.0]]), limits=MotionLimits(), horizon_s=1.5, dt_s=0.1
+    )
+    ok, least = admissible(costmap, pose, states, commands, rules=SafetyRules())
+    assert ok[0] and least[0] == pytest.approx(0.15, abs=0.005)
+
+
+def test_a_passage_as_narrow_as_the_body_allows_is_planned_and_driven() -> None:
+    """A 0.55 m corridor: no planning cell's centre has the padded inscribed radius (0.28 m), yet the plan
+    goes through it (a cell is passable where one of its costmap cells is) and RPP drives it with the
+    controller's clearance."""
+    costmap = corridor_costmap(free_cells=11)
+    plan = GlobalPlanner().plan(costmap, start_xy=(-1.0, -0.025), goal_xy=(1.5, -0.025))
+    assert plan.ok and plan.length_m == pytest.approx(2.5, abs=0.9)
+    pose, plan, least = drive(
+        RegulatedPurePursuit(), costmap, Pose2D(-1.0, -0.025, 0.0), (1.5, -0.025), seconds=10.0
+    )
+    # 1.8 m along the corridor in 10 s (slowed by the clearance and the approach to the end), on its centre line.
+    assert pose.x_m >= 0.8 and abs(pose.y_m + 0.025) < 0.03
+    assert least >= SafetyRules().min_clearance_m - 1e-6
+
+
+def test_a_turn_in_place_sweeping_never_observed_floor_is_refused() -> None:
+    """One view ahead: the floor beside the robot was never seen, so a turn in place (its rear corners swing
+    out sideways) is refused, while walking straight on is not. Once the turning circle is known free
+    (the start pose's, assumed at the start of a mission), the turn is admissible."""
+    costmap, _ = costmap_at(Pose2D(0.0, 0.0, 0.0), turns=1)
+    pose = Pose2D(0.0, 0.0, 0.0)
+    targets = np.array([[0.0, 0.8], [0.5, 0.0]])
+    states, commands = rollout(pose, Twist(), targets, limits=MotionLimits(), horizon_s=1.0, dt_s=0.1)
+    ok, _ = admissible(costmap, pose, states, commands, rules=SafetyRules())
+    assert not ok[0] and ok[1]
+    ok, _ = admissible(costmap, pose, states, commands, rules=SafetyRules(sweep_observed_only=False))
+    assert ok[0]  # the first round's rule: lethal cells only
+    changed = costmap.assume_free_around((0.0, 0.0), radius_m=FOOTPRINT.circumscribed_radius_m + 0.05)
+    assert changed > 0 and costmap.state_at((0.0, -0.35)) == "free"
+    ok, _ = admissible(costmap, pose, states, commands, rules=SafetyRules())
+    assert ok[0] and ok[1]
+
+
+def test_assuming_the_start_free_keeps_what_was_seen() -> None:
+    costmap, _ = costmap_at(Pose2D(0.0, 0.0, 0.0), posts=((1, 0.0, 0.55, 0.1, 0.6),), turns=16)
+    lethal_before = costmap.lethal().copy()
+    costmap.assume_free_around((0.0, 0.0), radius_m=0.5)
+    np.testing.assert_array_equal(costmap.lethal(), lethal_before)
+    assert lethal_before.any()

@@ -75,6 +75,12 @@ def prepare_board(
         costmap = Costmap(
             CostmapConfig(), footprint=go1_footprint(), origin_xy=(start_pose.x_m, start_pose.y_m)
         )
+    # The robot is set down with room to turn: its turning circle counts as observed free (the controllers
+    # turn only through observed space, and the camera never sees the floor that close).
+    costmap.assume_free_around(
+        (start_pose.x_m, start_pose.y_m),
+        radius_m=costmap.footprint.circumscribed_radius_m + costmap.resolution_m,
+    )
     board.local_map = costmap
     return board
 

@@ -7,8 +7,9 @@ cycle (12 Hz). Two are implemented and were compared by measurement (``docs/plan
 same safety rules, stated and checked here:
 
 - **The oriented footprint, at every sampled state.** A state's clearance is the distance from the
-  Go1's rectangle to the nearest lethal cell, from the costmap's distance field at the centres of
-  discs that cover the rectangle (:attr:`Footprint.covering_discs`), minus the disc radius. A motion
+  Go1's rectangle to the nearest lethal cell, from the costmap's distance field at points along its
+  outline and centre line (:attr:`Footprint.clearance_points`; the disc cover of the first round
+  overshot the sides by 2.5 cm, so the narrowest drivable passage was 0.62 m instead of 0.56 m). A motion
   whose states come closer than ``min_clearance_m`` is never commanded; a robot that already stands
   closer (it was pushed, or the map just learnt of an obstacle) may only move so that its clearance
   does not shrink.
@@ -17,6 +18,14 @@ same safety rules, stated and checked here:
   head; after a turn that band is unknown).
 - **Backing up only onto known free cells**: every disc of every state of a backward motion must lie on
   observed cells (the camera does not look back; the footprint's own trail is known free).
+- **Turning only through observed space**: every point of the footprint's outline, at every state, that
+  leaves the *forward corridor* of the current pose (the band the body would cover walking straight on)
+  must lie on observed cells. A turn in place or a tight arc swings the long body's corners sideways, over
+  floor beside the robot that the narrow camera (54 degrees across, blind to the floor within 0.8 m of
+  the base) may never have seen: an obstacle there is absent from the costmap, not lethal, so the
+  clearance rule alone lets a corner sweep into it (the remaining contacts of ``ours`` in the first
+  round). Straight ahead the unknown band in front of the head is what the unseen-space allowance
+  governs; the start pose's turning circle is assumed free (:meth:`Costmap.assume_free_around`).
 - **Speed regulated by clearance**: below ``slow_clearance_m`` the speed is scaled down linearly to
   ``creep_fraction`` at ``min_clearance_m``, with the yaw rate, so the motion stays on the checked arc.
 - **Within what the gait tracks**: |v| <= 1 m/s forward, 0.5 m/s back, |omega| <= 1 rad/s (docs/gait.md),
@@ -34,7 +43,15 @@ import numpy.typing as npt
 
 from semexp_bt.core.types import FloatArray, Pose2D, Twist
 from semexp_bt.nav.costmap import Costmap
+from semexp_bt.nav.footprint import transform_points
 from semexp_bt.nav.global_planner import GlobalPlan
+
+#: The covering discs overshoot the Go1's rectangle by at most this much (3.4 cm at the ends), so their
+#: clearance is within it of the rectangle's own.
+DISC_OVERSHOOT_BOUND_M = 0.04
+#: Below this disc clearance (m) the exact outline clearance is computed: the slow-down band
+#: (``SafetyRules.slow_clearance_m``, 0.45 m) plus the overshoot bound.
+EXACT_CLEARANCE_BELOW_M = 0.49
 
 ControlStatus = Literal["tracking", "rotating", "blocked", "arrived"]
 """``tracking`` the path; ``rotating`` in place toward it; ``blocked``: no admissible motion (zero
@@ -64,6 +81,10 @@ class SafetyRules:
     """Speed fraction at ``min_clearance_m``."""
     unknown_allowance_m: float = 0.6
     """Travel of the base centre through never-observed cells allowed per trajectory."""
+    sweep_observed_only: bool = True
+    """Refuse motions whose footprint outline leaves the forward corridor over never-observed cells."""
+    outline_spacing_m: float = 0.1
+    """Spacing of the outline points that rule checks (two cells)."""
 
 
 @dataclass
@@ -104,13 +125,34 @@ class PathController(Protocol):
 
 
 def footprint_clearance(costmap: Costmap, x: FloatArray, y: FloatArray, yaw: FloatArray) -> FloatArray:
-    """Clearance (m) of the footprint to the nearest lethal cell at every pose (arrays of one shape)."""
+    """Clearance (m) of the oriented footprint to the nearest lethal cell at every pose (arrays of one shape):
+    the least distance at its :attr:`~semexp_bt.nav.footprint.Footprint.clearance_points`.
+
+    Ten covering discs give a lower bound cheaply (they overshoot the rectangle by at most
+    :data:`DISC_OVERSHOOT_BOUND_M`); the outline points are read only for the poses where that bound is
+    below :data:`EXACT_CLEARANCE_BELOW_M`, where the exact value decides admissibility, speed and the
+    critics. Farther from everything the bound stands for the value (full speed either way).
+    """
+    shape = np.shape(x)
+    bound = _disc_clearance(costmap, np.ravel(x), np.ravel(y), np.ravel(yaw))
+    near = np.flatnonzero(bound < EXACT_CLEARANCE_BELOW_M)
+    if near.size:
+        points = costmap.footprint.clearance_points
+        xs, ys, yaws = np.ravel(x)[near], np.ravel(y)[near], np.ravel(yaw)[near]
+        c, s = np.cos(yaws)[:, None], np.sin(yaws)[:, None]
+        px = xs[:, None] + c * points[:, 0] - s * points[:, 1]
+        py = ys[:, None] + s * points[:, 0] + c * points[:, 1]
+        bound[near] = costmap.distance_at(np.stack([px, py], axis=-1)).min(axis=-1)
+    return bound.reshape(shape)
+
+
+def _disc_clearance(costmap: Costmap, x: FloatArray, y: FloatArray, yaw: FloatArray) -> FloatArray:
+    """A lower bound of the footprint's clearance from its covering discs, at poses ``(N,)``."""
     centres, radius = costmap.footprint.covering_discs
-    c, s = np.cos(yaw)[..., None], np.sin(yaw)[..., None]
-    px = x[..., None] + c * centres[:, 0] - s * centres[:, 1]
-    py = y[..., None] + s * centres[:, 0] + c * centres[:, 1]
-    d = costmap.distance_at(np.stack([px, py], axis=-1))
-    return d.min(axis=-1) - radius
+    c, s = np.cos(yaw)[:, None], np.sin(yaw)[:, None]
+    px = x[:, None] + c * centres[:, 0] - s * centres[:, 1]
+    py = y[:, None] + s * centres[:, 0] + c * centres[:, 1]
+    return np.asarray(costmap.distance_at(np.stack([px, py], axis=-1)).min(axis=-1) - radius)
 
 
 def discs_known(costmap: Costmap, x: FloatArray, y: FloatArray, yaw: FloatArray) -> npt.NDArray[np.bool_]:
@@ -120,6 +162,29 @@ def discs_known(costmap: Costmap, x: FloatArray, y: FloatArray, yaw: FloatArray)
     px = x[..., None] + c * centres[:, 0] - s * centres[:, 1]
     py = y[..., None] + s * centres[:, 0] + c * centres[:, 1]
     return np.asarray(costmap.known_at(np.stack([px, py], axis=-1)).all(axis=-1))
+
+
+def sweeps_unseen(
+    costmap: Costmap, pose: Pose2D, states: FloatArray, *, spacing_m: float
+) -> npt.NDArray[np.bool_]:
+    """Whether each rollout ``(K, T, 3)`` carries a point of the footprint's outline, outside the forward
+    corridor of ``pose``, over a never-observed cell: ``(K,)``.
+
+    The forward corridor is the band the footprint covers moving straight on from ``pose`` (within a cell
+    of its sides, from its rear edge forward); inside it, the unseen-space allowance rules.
+    """
+    fp = costmap.footprint
+    outline = fp.outline(spacing_m)
+    world = transform_points(outline, states[..., 0], states[..., 1], states[..., 2])  # (K, T, P, 2)
+    c, s = math.cos(pose.yaw_rad), math.sin(pose.yaw_rad)
+    dx, dy = world[..., 0] - pose.x_m, world[..., 1] - pose.y_m
+    ahead, left = c * dx + s * dy, -s * dx + c * dy
+    margin = costmap.resolution_m
+    outside = (np.abs(left) > fp.half_width_m + margin) | (ahead < fp.x_min_m - margin)
+    if not outside.any():
+        return np.zeros(len(states), dtype=bool)
+    unseen = outside & ~costmap.known_at(world)
+    return np.asarray(unseen.reshape(len(states), -1).any(axis=1))
 
 
 def rollout(
@@ -169,6 +234,10 @@ def admissible(
     if backward.any():
         known = discs_known(costmap, x[backward], y[backward], yaw[backward]).all(axis=1)
         ok[np.flatnonzero(backward)[~known]] = False
+    if rules.sweep_observed_only and ok.any():
+        candidates = np.flatnonzero(ok)
+        unseen = sweeps_unseen(costmap, pose, states[candidates], spacing_m=rules.outline_spacing_m)
+        ok[candidates[unseen]] = False
     return ok, least
 
 

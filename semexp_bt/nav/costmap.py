@@ -88,10 +88,11 @@ class CostmapConfig:
     """Log-odds floor (a cell seen free many times still flips after a few hits)."""
     max_log_odds: float = field(default=3.5, metadata=field_range(0.0, 20.0))
     """Log-odds ceiling."""
-    clearance_m: float = field(default=0.15, metadata=field_range(0.0, 1.0))
-    """Padding of the footprint for inflation: OASR's 0.1 m clearance (a breach counts as a collision) plus
-    what the controller's footprint check adds (the cell quantisation of the distance field and the disc
-    cover's overshoot, about 5 cm), so that a passage the planner takes is one the controller can drive."""
+    clearance_m: float = field(default=0.13, metadata=field_range(0.0, 1.0))
+    """Padding of the footprint for inflation: the controller's least clearance (OASR's 0.1 m plus half a
+    cell, ``SafetyRules.min_clearance_m``), so that a passage the planner takes is one the controller can
+    drive: 0.56 m of free width for the 0.30 m body (0.60 m while the controller's check was a disc cover
+    that overshot the rectangle's sides)."""
     inflation_radius_m: float = field(default=1.0, metadata=field_range(0.0, 10.0, low_open=True))
     """Distances (and costs) are kept out to this far from lethal cells."""
     cost_scaling_factor: float = field(default=3.0, metadata=field_range(0.0, 100.0))
@@ -475,16 +476,10 @@ class Costmap:
         require_finite("xy", xy)
         if self.frozen:
             return 0
-        res = self.config.resolution_m
-        centre = self.cell_of(np.asarray(xy, dtype=float))
-        reach = int(math.ceil(radius_m / res))
-        rows, cols = self.shape
-        r0, r1 = max(int(centre[0]) - reach, 0), min(int(centre[0]) + reach + 1, rows)
-        c0, c1 = max(int(centre[1]) - reach, 0), min(int(centre[1]) + reach + 1, cols)
-        if r1 <= r0 or c1 <= c0:
+        found = self._disc(xy, radius_m)
+        if found is None:
             return 0
-        rr, cc = np.ogrid[r0:r1, c0:c1]
-        squared = ((rr - centre[0]) ** 2 + (cc - centre[1]) ** 2) * res * res
+        (r0, c0, r1, c1), squared = found
         ring = (squared <= radius_m * radius_m) & (squared > keep_radius_m * keep_radius_m)
         window = (slice(r0, r1), slice(c0, c1))
         had_lethal = bool((self.log_odds[window][ring] > self.config.lethal_log_odds).any())
@@ -494,6 +489,45 @@ class Costmap:
             self._update_distances(r0, c0, r1, c1)
             self.revision += 1
         return int(np.count_nonzero(ring))
+
+    def assume_free_around(self, xy: tuple[float, float], *, radius_m: float) -> int:
+        """Count the never-observed cells within ``radius_m`` of ``xy`` as observed free (the start pose's
+        turning circle: the robot is set down with room to turn, and the camera, blind to the floor within
+        0.8 m of the base, can never see it). Lethal and already observed cells keep what they hold.
+        Returns how many cells changed."""
+        require_finite("xy", xy)
+        if self.frozen:
+            return 0
+        res = self.config.resolution_m
+        reach = np.array([radius_m, radius_m])
+        cells = self.cell_of(np.stack([np.asarray(xy) - reach - res, np.asarray(xy) + reach + res]))
+        self._ensure(cells.min(axis=0), cells.max(axis=0))
+        found = self._disc(xy, radius_m)
+        if found is None:
+            return 0
+        (r0, c0, r1, c1), squared = found
+        window = (slice(r0, r1), slice(c0, c1))
+        fresh = (squared <= radius_m * radius_m) & ~self.observed[window]
+        self.observed[window] |= fresh
+        return int(np.count_nonzero(fresh))
+
+    def _disc(
+        self, xy: tuple[float, float], radius_m: float
+    ) -> tuple[tuple[int, int, int, int], npt.NDArray[np.float64]] | None:
+        """The grid window ``(r0, c0, r1, c1)`` around a disc and the squared distance (m^2) of each cell's
+        centre from ``xy``; None when the disc lies off the grid."""
+        res = self.config.resolution_m
+        centre = self.cell_of(np.asarray(xy, dtype=float))
+        reach = int(math.ceil(radius_m / res)) + 1
+        rows, cols = self.shape
+        r0, r1 = max(int(centre[0]) - reach, 0), min(int(centre[0]) + reach + 1, rows)
+        c0, c1 = max(int(centre[1]) - reach, 0), min(int(centre[1]) + reach + 1, cols)
+        if r1 <= r0 or c1 <= c0:
+            return None
+        rr, cc = np.mgrid[r0:r1, c0:c1]
+        centres = self.centre_of(rr, cc)
+        squared = (centres[..., 0] - xy[0]) ** 2 + (centres[..., 1] - xy[1]) ** 2
+        return (r0, c0, r1, c1), np.asarray(squared, dtype=np.float64)
 
     def set_known(
         self, lethal: npt.NDArray[np.bool_], *, lower_left_xy: tuple[float, float], resolution_m: float

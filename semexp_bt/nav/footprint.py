@@ -29,6 +29,9 @@ import numpy as np
 
 from semexp_bt.core.types import FloatArray, InvalidInputError, require_finite
 
+#: Spacing of :attr:`Footprint.clearance_points` along the outline and the centre line (one costmap cell).
+CLEARANCE_SPACING_M = 0.05
+
 
 @dataclass(frozen=True)
 class Footprint:
@@ -103,6 +106,23 @@ class Footprint:
         xs = self.x_min_m + step * (np.arange(count) + 0.5)
         centres = np.concatenate([np.stack([xs, np.full(count, y)], axis=1) for y in (-a, a)])
         return centres, float(radius)
+
+    @cached_property
+    def clearance_points(self) -> FloatArray:
+        """``(P, 2)`` points whose distances to the nearest obstacle give the rectangle's own clearance: the
+        outline every :data:`CLEARANCE_SPACING_M` (an obstacle outside the rectangle is nearest to its
+        outline; between two points the error is under 3 mm at the controller's 0.13 m) and the centre line,
+        so that an obstacle inside the rectangle is never farther than a quarter width from a point.
+
+        Unlike :attr:`covering_discs` it does not overshoot the rectangle (the discs add 2.5 cm at the sides,
+        which made a 0.60 m passage the narrowest one the 0.30 m wide Go1 could drive).
+        """
+        spacing = CLEARANCE_SPACING_M
+        count = max(1, math.ceil(self.length_m / spacing))
+        centre_line = np.stack(
+            [self.x_min_m + self.length_m * (np.arange(1, count) / count), np.zeros(count - 1)], axis=1
+        )
+        return np.concatenate([self.outline(spacing), centre_line])
 
     def contains(self, points_base: FloatArray) -> np.ndarray:
         """Which of the ``(N, 2)`` base-frame points lie inside the rectangle (edges included)."""

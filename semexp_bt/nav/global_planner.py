@@ -146,12 +146,19 @@ class GlobalPlanner:
         plan = self._plan_in_window(costmap, start_xy, goal_xy, self.config.window_margin_m, stamp_s)
         if plan.status == "no_path":
             plan = self._plan_in_window(costmap, start_xy, goal_xy, self.config.wide_window_margin_m, stamp_s)
+        if not plan.ok:
+            # A passage as narrow as the body allows (0.56-0.60 m) may have no planning cell centred in it
+            # (nor the robot standing in it a passable cell of its own): once more with a planning cell
+            # passable where any of its costmap cells is.
+            plan = self._plan_in_window(
+                costmap, start_xy, goal_xy, self.config.wide_window_margin_m, stamp_s, fine_passage=True
+            )
         return plan
 
     # ------------------------------------------------------------------ internals
     def _plan_in_window(
         self, costmap: Costmap, start_xy: tuple[float, float], goal_xy: tuple[float, float], margin_m: float,
-        stamp_s: float,
+        stamp_s: float, *, fine_passage: bool = False,
     ) -> GlobalPlan:  # fmt: skip
         cfg = self.config
         res = costmap.resolution_m
@@ -163,9 +170,9 @@ class GlobalPlanner:
         lo = grid_lower + np.floor((np.minimum(start, goal) - margin_m - grid_lower) / cell) * cell
         hi = grid_lower + np.ceil((np.maximum(start, goal) + margin_m - grid_lower) / cell) * cell
         cols, rows = (int(v) for v in np.round((hi - lo) / cell))
-        distance, observed = _pooled_layers(costmap, lo, rows, cols, cfg.cell_factor)
+        distance, widest, observed = _pooled_layers(costmap, lo, rows, cols, cfg.cell_factor)
         inscribed = costmap.inscribed_radius_m
-        passable = distance >= inscribed
+        passable = (widest if fine_passage else distance) >= inscribed
         normalised = costmap.cost(distance, np.ones_like(observed)).astype(float) / MAX_NON_OBSTACLE_COST
         weight = np.where(observed, 1.0 + cfg.cost_weight * np.minimum(normalised, 1.0), cfg.unknown_cost)
 
@@ -236,9 +243,10 @@ def _extend_into_obstacles(cost_to_go: FloatArray, cell_m: float) -> FloatArray:
 
 def _pooled_layers(
     costmap: Costmap, lower_xy: FloatArray, rows: int, cols: int, factor: int
-) -> tuple[FloatArray, npt.NDArray[np.bool_]]:
-    """The window's planning cells: the distance to a lethal cell at the centre and whether any part was observed
-    (outside the costmap: far from everything, unobserved)."""
+) -> tuple[FloatArray, FloatArray, npt.NDArray[np.bool_]]:
+    """The window's planning cells: the distance to a lethal cell at the centre, the largest distance among
+    its costmap cells, and whether any part was observed (outside the costmap: far from everything,
+    unobserved)."""
     res = costmap.resolution_m
     grid_rows, grid_cols = costmap.shape
     offset = np.round((lower_xy - np.asarray(costmap.lower_left_xy)) / res).astype(np.int64)
@@ -255,9 +263,9 @@ def _pooled_layers(
         observed[dst] = costmap.observed[src_r0:src_r1, src_c0:src_c1]
     # The block's mean is the distance field at the planning cell's centre (bilinear between the fine
     # cells' centres), within a centimetre; the controller checks the footprint on the fine field.
-    distance = distance.reshape(rows, factor, cols, factor).mean(axis=(1, 3))
+    blocks = distance.reshape(rows, factor, cols, factor)
     seen: npt.NDArray[np.bool_] = np.asarray(observed.reshape(rows, factor, cols, factor).any(axis=(1, 3)))
-    return distance.astype(float), seen
+    return blocks.mean(axis=(1, 3)).astype(float), blocks.max(axis=(1, 3)).astype(float), seen
 
 
 def _lattice_graph(

@@ -8,7 +8,7 @@ from collections.abc import Callable
 from py_trees.common import Status
 
 from behaviours.spin import Spin
-from semexp_bt.core.types import Twist
+from semexp_bt.core.types import Pose2D, Twist
 from tests.behaviours.rig import Rig, compact, robot_among
 from tests.test_executive import Post
 
@@ -42,4 +42,17 @@ def test_halting_it_commands_a_zero_twist(rig: Rig) -> None:
     assert rig.tick(spin, ticks=3) == [Status.RUNNING] * 3
     assert rig.get("cmd_twist") != Twist.zero()
     rig.halt(spin)
+    assert rig.get("cmd_twist") == Twist.zero()
+
+
+def test_it_fails_rather_than_sweep_floor_it_has_never_seen(rig: Rig) -> None:
+    # Away from the start (whose turning circle counts as free), having looked only straight ahead: the
+    # floor beside the body was never observed, so the rear corners may not swing over it.
+    rig.robot.place(Pose2D(3.0, 0.0, 0.0))
+    rig.map_from(rig.robot.base_pose(), turns=1)
+    spin = rig.build(Spin, angle_deg=90.0)
+    statuses = rig.tick_until_done(spin, limit_s=20.0)
+    rig.show(spin)
+    assert statuses[-1] == Status.FAILURE
+    assert "sweep" in spin.feedback_message
     assert rig.get("cmd_twist") == Twist.zero()
