@@ -527,16 +527,19 @@ def run_gait_bench(
     policy = load_policy(checkpoint)
     reference = GaitPolicy.reference(policy.config.trot)
     started = time.perf_counter()
+    header = {
+        "checkpoint": str(checkpoint) if checkpoint is not None else "robots/gait_checkpoints",
+        "checkpoint_info": policy.config.info,
+        "seeds": seeds,
+        "quick": quick,
+        "seed": seed,
+        "floors": FLOORS,
+    }
     if contact_only:
         contact = {"contact": _contact(policy, seeds=seeds, quick=quick, seed=seed)}
         return {
             "kind": "gait_contact",
-            "checkpoint": str(checkpoint) if checkpoint is not None else "robots/gait_checkpoints",
-            "checkpoint_info": policy.config.info,
-            "seeds": seeds,
-            "quick": quick,
-            "seed": seed,
-            "floors": FLOORS,
+            **header,
             "gaits": {"policy": contact, "reference": {}},
             "floors_met": {"no_contact_falls": contact["contact"]["falls"] <= FLOORS["contact_falls"]},
             "wall_s": round(time.perf_counter() - started, 1),
@@ -548,12 +551,7 @@ def run_gait_bench(
     }
     return {
         "kind": "gait",
-        "checkpoint": str(checkpoint) if checkpoint is not None else "robots/gait_checkpoints",
-        "checkpoint_info": policy.config.info,
-        "seeds": seeds,
-        "quick": quick,
-        "seed": seed,
-        "floors": FLOORS,
+        **header,
         "gaits": gaits,
         "floors_met": floors_met(gaits["policy"]),
         "reference_floors_met": floors_met(gaits["reference"]),
