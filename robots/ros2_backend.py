@@ -101,6 +101,11 @@ PAIR_LOG = 4096
 WATCHDOG_PERIOD_S = 0.05
 #: Zero twists sent on close, so that the driver has one even if a datagram is lost.
 CLOSING_ZERO_COMMANDS = 3
+#: Least wall time (s) the lockstep executive waits for the bridge to answer a step or a render. The
+#: profile's sensor deadlines are the real robot's rates; a simulated step on a loaded 2-core machine
+#: answered later than odometry's 0.5 s once (CI), which is a slow simulation, not a lost robot. 1 s keeps
+#: a dead bridge's halt within the 2 s the executive has to exit.
+LOCKSTEP_REPLY_MIN_S = 1.0
 
 
 class Ros2Error(RuntimeError):
@@ -504,7 +509,7 @@ class Ros2Robot(Robot):
         fill_stamp(msg.header.stamp, target_ns * 1e-9)
         fill_twist(msg.twist, command)
         self._step_pub.publish(msg)
-        deadline = self.profile.deadline_of("odom")
+        deadline = max(self.profile.deadline_of("odom"), LOCKSTEP_REPLY_MIN_S)
         with self._lock:
             arrived = self._await_bridge(
                 lambda: (
@@ -621,7 +626,7 @@ class Ros2Robot(Robot):
         msg = self._string_msg_type()
         msg.data = encode_camera_request(request)
         self._request_pub.publish(msg)
-        deadline = self.profile.deadline_of("depth_image")
+        deadline = max(self.profile.deadline_of("depth_image"), LOCKSTEP_REPLY_MIN_S)
 
         def arrived() -> bool:
             return all(self._arrivals[s] > seen[s] and self._latest[s].stamp_ns == now for s in wanted)
