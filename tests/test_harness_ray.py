@@ -38,7 +38,7 @@ REPO = Path(__file__).resolve().parents[1]
 #: address. The driver side (the harness) sets the same switch itself for a loopback address.
 LOOPBACK_ENV = {"RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER": "0", "RAY_USAGE_STATS_ENABLED": "0"}
 #: Row fields that measure the machine, not the episode.
-WALL_CLOCK_FIELDS = {"wall_time_s", "harness_wall_s", "tick_wall_ms", "timings", "worker_pid"}
+WALL_CLOCK_FIELDS = {"wall_time_s", "harness_wall_s", "tick_wall_ms", "tick_cpu_ms", "timings", "worker_pid"}
 
 
 def _free_port() -> int:

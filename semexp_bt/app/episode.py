@@ -390,6 +390,7 @@ def episode_record(
         "events": result.services.events,
         "timings": result.services.timings.summary(),
         "tick_wall_ms": result.tick_wall_ms(),
+        "tick_cpu_ms": result.tick_cpu_ms(),
         "ticks": result.ticks,
         "sim_time_s": result.sim_time_s,
         "wall_time_s": wall_s,

@@ -245,6 +245,7 @@ def _result_record(result: MissionResult) -> dict[str, Any]:
         "events": services.events,
         "timings": services.timings.summary(),
         "tick_wall_ms": result.tick_wall_ms(),
+        "tick_cpu_ms": result.tick_cpu_ms(),
         "ticks": result.ticks,
         "sim_time_s": result.sim_time_s,
     }
