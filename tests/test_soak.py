@@ -52,3 +52,21 @@ def test_live_objects_count_what_is_alive() -> None:
     assert after["topological memories"] == before["topological memories"] + 1
     del kept
     assert resident_bytes() > 10 * 2**20
+
+
+class _LazyProxy:
+    """An object that, like a lazy module's attribute, does work when asked for its ``__class__``."""
+
+    asked = 0
+
+    @property
+    def __class__(self) -> type:  # type: ignore[override]
+        _LazyProxy.asked += 1
+        return _LazyProxy
+
+
+def test_counting_live_objects_asks_no_object_for_its_class() -> None:
+    proxy = _LazyProxy()
+    live_objects()
+    assert _LazyProxy.asked == 0, "isinstance on every live object runs lazy imports and grows the process"
+    del proxy
