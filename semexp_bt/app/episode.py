@@ -93,6 +93,7 @@ class EpisodeOptions:
         success_radius_m: r_s for SR.
         clearance_m: the clearance threshold for OASR.
         max_sim_s: hard cap on simulated time, whatever the tree says (a safety net).
+        measure_tick_cpu: record each tick's thread CPU time too (``tick_cpu_ms``; the soak's floor).
         keep_trajectory: add ``trajectory_xy`` (the base path, subsampled every
             :data:`TRAJECTORY_STEP_M`) and ``memory_snapshot`` (``TopologicalMemory.snapshot()`` at the
             end) to the record, for the harness's trajectory plots.
@@ -119,6 +120,7 @@ class EpisodeOptions:
     success_radius_m: float = DEFAULT_SUCCESS_RADIUS_M
     clearance_m: float = DEFAULT_CLEARANCE_M
     max_sim_s: float = 900.0
+    measure_tick_cpu: bool = False
     keep_trajectory: bool = False
     faults: Sequence[FaultSpec] | None = None
     observers: Sequence[TickObserver] = ()
@@ -207,6 +209,7 @@ def run_episode(options: EpisodeOptions) -> dict[str, Any]:
             max_time_s=options.max_sim_s,
             observers=observers,
             privileged=privileged,
+            measure_tick_cpu=options.measure_tick_cpu,
         )
         if stack is not None:  # relevance errors no perception result carried (an emulator run)
             for message in stack.drain_errors():

@@ -158,7 +158,12 @@ def run_soak(
         probe = MemoryProbe()
         record = run_episode(
             EpisodeOptions(
-                mission_path=mission, scene=scene, seed=seed, relevance=relevance, observers=[probe]
+                mission_path=mission,
+                scene=scene,
+                seed=seed,
+                relevance=relevance,
+                observers=[probe],
+                measure_tick_cpu=True,
             )
         )
         del record["events"], record["decisions"]
