@@ -14,7 +14,8 @@ Semantics:
 - Halted while RUNNING: it commands a zero twist.
 
 The camera sees around while it turns, so the costmap learns what lies beside and behind the robot.
-``RotateInPlace`` (panoramic init, looking around) turns without the check.
+It is the product's only turn in place (the panoramic init, looking around, recovery): an unchecked
+turn swung the long body's corners into obstacles the camera had not seen.
 
 Example:
     - type: Spin

@@ -678,7 +678,6 @@ def product_behaviours() -> list[NodeSpec]:
     from behaviours.next_instruction import NextInstruction
     from behaviours.perceive import Perceive
     from behaviours.rate_limiter import RateLimiter
-    from behaviours.rotate_in_place import RotateInPlace
     from behaviours.seed_master_node import SeedMasterNode
     from behaviours.sensor_health_guard import SensorHealthGuard
     from behaviours.set_subgoal_to_start import SetSubgoalToStart
@@ -695,7 +694,6 @@ def product_behaviours() -> list[NodeSpec]:
         behaviour_spec(SimTimeout),
         # the paper's loop: evidence -> memory -> decision -> execution
         behaviour_spec(SeedMasterNode),
-        behaviour_spec(RotateInPlace),
         behaviour_spec(Perceive),
         behaviour_spec(Arbitrate),
         behaviour_spec(UpdateMemory),

@@ -5,7 +5,7 @@ The fixtures that build it (``rig``, ``make_rig``) are in ``conftest.py``.
 A test asks for the ``rig`` fixture (a robot at the origin facing +x, in an empty world, with perception
 that sees nothing) or builds its own with ``make_rig(robot=..., script=...)``; then::
 
-    behaviour = rig.build(RotateInPlace, angle_deg=90.0)
+    behaviour = rig.build(Spin, angle_deg=90.0)
     statuses = rig.tick(behaviour, ticks=5)      # tick, drive cmd_twist, let 20 ms pass; five times
     rig.show(behaviour)                          # prints the tree (here one leaf) the test asserts on
     assert rig.written_by(behaviour) == ["cmd_twist", "cmd_stamp_s"]

@@ -16,8 +16,8 @@ import pytest
 
 import behaviours
 from behaviours.base import SemExpBehaviour
-from behaviours.rotate_in_place import RotateInPlace
 from behaviours.spec import BlackboardKey, BuildContext, param
+from behaviours.spin import Spin
 from behaviours.stop_robot import StopRobot
 from blackboard.schema import SCHEMA, SchemaError, key_access
 from semexp_bt.app.executive import RUNNER_KEYS
@@ -47,30 +47,30 @@ def product_behaviour_classes() -> list[type[SemExpBehaviour]]:
 
 
 def test_parameters_left_out_take_their_declared_defaults(rig: Rig) -> None:
-    turn = rig.build(RotateInPlace)
+    turn = rig.build(Spin)
     rig.show(turn)
-    for name, spec in RotateInPlace.PARAMS.items():
+    for name, spec in Spin.PARAMS.items():
         assert getattr(turn, name) == spec.default
-    assert list(RotateInPlace.PARAMS) == ["angle_deg", "yaw_rate_radps", "timeout_s"]
+    assert list(Spin.PARAMS) == ["angle_deg", "yaw_rate_radps", "lookahead_s", "timeout_s"]
 
 
 def test_given_parameters_are_checked_and_normalised(rig: Rig) -> None:
-    turn = rig.build(RotateInPlace, angle_deg=90, timeout_s=3.0)
+    turn = rig.build(Spin, angle_deg=90, timeout_s=3.0)
     assert turn.angle_deg == 90.0 and isinstance(turn.angle_deg, float)  # an int widened, as the loader does
     assert turn.timeout_s == 3.0
-    with pytest.raises(ValueError, match=r"RotateInPlace 'Turn': parameter 'yaw_rate_radps'.*out of range"):
-        rig.build(RotateInPlace, name="Turn", yaw_rate_radps=3.0)
+    with pytest.raises(ValueError, match=r"Spin 'Turn': parameter 'yaw_rate_radps'.*out of range"):
+        rig.build(Spin, name="Turn", yaw_rate_radps=3.0)
     with pytest.raises(ValueError, match="parameter 'outcome'"):
         rig.build(StopRobot, outcome="exploded")
     with pytest.raises(TypeError, match=r"unknown parameter\(s\) \['angle'\]; expected: angle_deg"):
-        rig.build(RotateInPlace, angle=90.0)
+        rig.build(Spin, angle=90.0)
 
 
 def test_a_parameter_is_an_instance_attribute_only() -> None:
     """The declaration leaves no class attribute behind: reading one before __init__ is an error, not a
     ParamSpec passed off as a value."""
-    assert "angle_deg" not in vars(RotateInPlace)
-    assert not hasattr(RotateInPlace, "angle_deg")
+    assert "angle_deg" not in vars(Spin)
+    assert not hasattr(Spin, "angle_deg")
 
 
 def test_every_product_parameter_has_a_default_that_its_spec_accepts() -> None:
@@ -80,7 +80,7 @@ def test_every_product_parameter_has_a_default_that_its_spec_accepts() -> None:
             assert not spec.required, f"{cls.__name__}.{name} has no default"
             assert spec.check(spec.default)[1] is None
             checked += 1
-    assert checked == 76
+    assert checked == 73
 
 
 def test_a_required_parameter_must_be_given(rig: Rig) -> None:
@@ -119,10 +119,10 @@ def test_a_malformed_declaration_fails_when_the_class_is_defined(body: str, prob
 
 
 def test_the_registry_builds_a_behaviour_from_its_declaration(rig: Rig) -> None:
-    spec = behaviour_spec(RotateInPlace)
-    assert dict(spec.params) == RotateInPlace.PARAMS and spec.blackboard_keys == RotateInPlace.BLACKBOARD_KEYS
+    spec = behaviour_spec(Spin)
+    assert dict(spec.params) == Spin.PARAMS and spec.blackboard_keys == Spin.BLACKBOARD_KEYS
     built = spec.factory(name="Turn", params={"angle_deg": -30.0}, children=[], context=rig.context, remap={})
-    assert isinstance(built, RotateInPlace) and built.angle_deg == -30.0 and built.timeout_s == 15.0
+    assert isinstance(built, Spin) and built.angle_deg == -30.0 and built.timeout_s == 15.0
 
 
 # --------------------------------------------------------------------------------------------------
@@ -141,7 +141,8 @@ def test_key_access_is_read_write_for_a_key_in_both_lists() -> None:
 
 
 def test_a_behaviours_keys_are_its_reads_and_writes_documented_from_the_schema() -> None:
-    assert RotateInPlace.BLACKBOARD_KEYS == {
+    assert Spin.BLACKBOARD_KEYS == {
+        "local_map": BlackboardKey("read", doc=SCHEMA["local_map"].doc),
         "cmd_twist": BlackboardKey("write", doc=SCHEMA["cmd_twist"].doc),
         "cmd_stamp_s": BlackboardKey("write", doc=SCHEMA["cmd_stamp_s"].doc),
     }
@@ -207,4 +208,4 @@ def test_a_behaviours_docstring_states_its_semantics_keys_and_an_example(cls: ty
 
 def test_building_without_mission_services_is_a_clear_error() -> None:
     with pytest.raises(RuntimeError, match=r"BuildContext.services\['mission'\] is missing"):
-        RotateInPlace(name="Turn", context=BuildContext(clock=lambda: 0.0))
+        Spin(name="Turn", context=BuildContext(clock=lambda: 0.0))
