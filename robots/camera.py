@@ -33,6 +33,7 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
+from robots.mount import optical_to_base
 from robots.ros2_messages import round_depth_to_millimetres
 from semexp_bt.core.types import (
     BACKGROUND_OBJECT_ID,
@@ -151,12 +152,16 @@ class CameraConfig:
             width_px=self.width_px, height_px=self.height_px, vertical_fov_deg=self.vertical_fov_deg
         )
 
+    def optical_to_base(self) -> FloatArray:
+        """T_trunk<-optical (4x4) of the mount (``robots.mount``: the ROS 2 profile's mount gives the same
+        bits for the same numbers). The simulated camera pitches only."""
+        return optical_to_base(self.mount_position_m, 0.0, math.radians(self.mount_pitch_down_deg), 0.0)
+
     def mujoco_xyaxes(self) -> tuple[float, ...]:
-        """The MJCF ``xyaxes`` of the camera in the trunk frame: image right, then image up."""
-        pitch = math.radians(self.mount_pitch_down_deg)
-        right = (0.0, -1.0, 0.0)
-        up = (math.sin(pitch), 0.0, math.cos(pitch))
-        return right + up
+        """The MJCF ``xyaxes`` of the camera in the trunk frame: image right (optical x), then image up
+        (optical -y), from :meth:`optical_to_base`."""
+        rotation = self.optical_to_base()[:3, :3]
+        return tuple(float(v) + 0.0 for v in rotation[:, 0]) + tuple(-float(v) + 0.0 for v in rotation[:, 1])
 
 
 @dataclass

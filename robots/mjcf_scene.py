@@ -97,6 +97,12 @@ def _fmt(values: object) -> str:
     return " ".join(f"{float(v):.6g}" for v in values)  # type: ignore[attr-defined]
 
 
+def _fmt_exact(values: object) -> str:
+    """Every bit of each float (``repr``): the camera's pose must be its configuration's, which the
+    backends report as the frame's pose (6 digits put the optical axis 2e-7 rad off)."""
+    return " ".join(repr(float(v)) for v in values)  # type: ignore[attr-defined]
+
+
 def _yaw_quat(yaw_rad: float) -> tuple[float, float, float, float]:
     return (math.cos(yaw_rad / 2.0), 0.0, 0.0, math.sin(yaw_rad / 2.0))
 
@@ -164,8 +170,8 @@ def _configure_camera(body: ET.Element, camera: CameraConfig) -> None:
     element = body.find(f"camera[@name='{CAMERA_NAME}']")
     if element is None:
         raise ValueError(f"{GO1_XML_PATH}: trunk has no camera named '{CAMERA_NAME}'")
-    element.set("pos", _fmt(camera.mount_position_m))
-    element.set("xyaxes", _fmt(camera.mujoco_xyaxes()))
+    element.set("pos", _fmt_exact(camera.mount_position_m))
+    element.set("xyaxes", _fmt_exact(camera.mujoco_xyaxes()))
     element.set("fovy", f"{camera.vertical_fov_deg:.6g}")
 
 

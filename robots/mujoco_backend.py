@@ -48,6 +48,7 @@ from robots.go1 import (
 )
 from robots.interface import FIDELITIES, Fidelity, Robot
 from robots.mjcf_scene import build_mjcf, geom_object_ids, robot_geom_ids
+from robots.ros2_messages import pose2d_of, pose_to_transform
 from semexp_bt.core.geometry import wrap_angle
 from semexp_bt.core.scene import SceneSpec
 from semexp_bt.core.types import (
@@ -141,11 +142,6 @@ class ImuNoise:
                 raise InvalidInputError(
                     f"ImuNoise.{name} must be a non-negative finite number, got {value!r}"
                 )
-
-
-def _yaw_from_quat(quat_wxyz: FloatArray) -> float:
-    w, x, y, z = quat_wxyz
-    return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
 
 
 def _roll_pitch_from_quat(quat_wxyz: FloatArray) -> tuple[float, float]:
@@ -255,6 +251,11 @@ class MujocoRobot(Robot):
         )
         self._object_of_geom = object_of_geom
         self._camera: RgbdCamera | None = None
+        self._optical_to_base = self._camera_config.optical_to_base()
+        # Kinematic: x, y, yaw; dynamic: the free joint's position and quaternion.
+        self._pose_coordinates = 3 if fidelity == "kinematic" else 7
+        self._trunk_height_m = float(self.model.body_pos[self._trunk_body, 2])
+        self._transform_cache: tuple[bytes, FloatArray] | None = None
 
         self._command = Twist.zero()
         self._base_velocity = np.zeros(3)  # kinematic (vx, vy, wz) in the body frame
@@ -462,11 +463,37 @@ class MujocoRobot(Robot):
     def now_s(self) -> float:
         return float(self.data.time)
 
-    def base_pose(self) -> Pose2D:
+    def base_odometry(self) -> tuple[tuple[float, float, float], tuple[float, float, float, float]]:
+        """The trunk's pose in the world as a robot's odometry reports it: position (m) and unit
+        quaternion (x, y, z, w), read from the simulator's state.
+
+        :meth:`base_pose` and each observation's ``camera_to_world`` derive from it with the conversions
+        the ROS 2 backend applies to ``/odom`` (``robots.ros2_messages.pose_to_transform``, then the
+        camera's mount), and the simulation bridge publishes it as ``/odom``: a mission sees the same
+        pose, to the bit, in process and over ROS 2.
+        """
+        qpos = self.data.qpos
         if self._fidelity == "kinematic":
-            x, y, yaw = (float(v) for v in self.data.qpos[:3])
-            return Pose2D(x, y, yaw)
-        return Pose2D(float(self.data.qpos[0]), float(self.data.qpos[1]), _yaw_from_quat(self.data.qpos[3:7]))
+            x, y, yaw = (float(v) for v in qpos[:3])
+            half = 0.5 * yaw
+            return (x, y, self._trunk_height_m), (0.0, 0.0, math.sin(half), math.cos(half))
+        w, qx, qy, qz = (float(v) for v in qpos[3:7])
+        return (float(qpos[0]), float(qpos[1]), float(qpos[2])), (qx, qy, qz, w)
+
+    def base_to_world(self) -> FloatArray:
+        """T_world<-trunk (4x4) of :meth:`base_odometry` (a copy)."""
+        return self._base_transform().copy()
+
+    def _base_transform(self) -> FloatArray:
+        # base_pose is read several times a tick: convert once per state (qpos bytes as the key).
+        key = self.data.qpos[: self._pose_coordinates].tobytes()
+        if self._transform_cache is None or self._transform_cache[0] != key:
+            self._transform_cache = (key, pose_to_transform(*self.base_odometry()))
+        return self._transform_cache[1]
+
+    def base_pose(self) -> Pose2D:
+        """The planar pose of :meth:`base_odometry` (x, y and the heading of its rotation)."""
+        return pose2d_of(self._base_transform())
 
     def base_twist(self) -> Twist:
         if self._fidelity == "kinematic":
@@ -560,6 +587,11 @@ class MujocoRobot(Robot):
         mujoco.mj_camlight(self.model, self.data)
         return self._camera
 
+    def _camera_to_world(self) -> FloatArray:
+        """T_world<-optical as a robot reports it: odometry times the camera's mount (the render's own
+        pose, MuJoCo's compiled camera, agrees to rounding: the MJCF carries the mount's every bit)."""
+        return self._base_transform() @ self._optical_to_base
+
     def observe(self) -> Observation:
         """Render the head camera now (RGB, depth, segmentation) with the pose it was taken at."""
         camera = self._ready_camera()
@@ -568,7 +600,7 @@ class MujocoRobot(Robot):
             rgb=frame.rgb,
             depth_m=frame.depth_m,
             intrinsics=camera.intrinsics,
-            camera_to_world=camera.camera_to_world(self.data),
+            camera_to_world=self._camera_to_world(),
             base_pose=self.base_pose(),
             stamp_s=self.now_s(),
             segmentation=frame.segmentation,
@@ -589,7 +621,7 @@ class MujocoRobot(Robot):
             rgb=np.empty((0, 0, 3), dtype=np.uint8),
             depth_m=depth,
             intrinsics=camera.intrinsics,
-            camera_to_world=camera.camera_to_world(self.data),
+            camera_to_world=self._camera_to_world(),
             base_pose=self.base_pose(),
             stamp_s=self.now_s(),
             segmentation=None,

@@ -21,6 +21,7 @@ import numpy as np
 import numpy.typing as npt
 
 from robots.interface import Fidelity, Robot
+from robots.mount import OPTICAL_IN_LINK
 from semexp_bt.core.geometry import wrap_angle
 from semexp_bt.core.types import (
     CameraIntrinsics,
@@ -131,10 +132,9 @@ class NullRobot(Robot):
     def _camera_to_world(self) -> npt.NDArray[np.float64]:
         c, s = math.cos(self._pose.yaw_rad), math.sin(self._pose.yaw_rad)
         # optical frame (x right, y down, z forward) -> base (x forward, y left, z up) -> world
-        optical_to_base = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
         base_to_world = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
         out = np.eye(4)
-        out[:3, :3] = base_to_world @ optical_to_base
+        out[:3, :3] = base_to_world @ OPTICAL_IN_LINK
         out[:3, 3] = [self._pose.x_m, self._pose.y_m, CAMERA_HEIGHT_M]
         return out
 

@@ -276,16 +276,31 @@ def yaw_of(rotation: FloatArray) -> float:
     return math.atan2(float(rotation[1, 0]), float(rotation[0, 0]))
 
 
+def pose_to_transform(position_m: Sequence[float], orientation_xyzw: Sequence[float]) -> FloatArray:
+    """A position and a unit quaternion (x, y, z, w) -> the 4x4 transform (the quaternion normalised).
+
+    The one conversion from a robot's reported pose to a transform: the ROS 2 backend applies it to
+    ``/odom``, the MuJoCo backend to its own base pose, so that equal poses give equal bits.
+    """
+    values = [float(v) for v in position_m]
+    if len(values) != 3:
+        raise MessageError(f"position must have 3 components, got {values}")
+    if not all(math.isfinite(v) for v in values):
+        raise MessageError(f"position must be finite, got {values}")
+    x, y, z, w = (float(v) for v in orientation_xyzw)
+    out = np.eye(4)
+    out[:3, :3] = quaternion_to_matrix(x, y, z, w)
+    out[:3, 3] = values
+    return out
+
+
 def odometry_to_transform(msg: Any) -> FloatArray:
     """``nav_msgs/Odometry`` -> T_odom<-base (4x4)."""
     p, q = msg.pose.pose.position, msg.pose.pose.orientation
-    values = [float(p.x), float(p.y), float(p.z)]
-    if not all(math.isfinite(v) for v in values):
-        raise MessageError(f"odometry position must be finite, got {values}")
-    out = np.eye(4)
-    out[:3, :3] = quaternion_to_matrix(float(q.x), float(q.y), float(q.z), float(q.w))
-    out[:3, 3] = values
-    return out
+    try:
+        return pose_to_transform((p.x, p.y, p.z), (q.x, q.y, q.z, q.w))
+    except MessageError as error:
+        raise MessageError(f"odometry {error}") from None
 
 
 def pose2d_of(transform: FloatArray) -> Pose2D:
@@ -304,20 +319,22 @@ def odometry_to_twist(msg: Any) -> Twist:
 
 def fill_odometry(
     msg: Any,
-    base_to_odom: FloatArray,
+    position_m: Sequence[float],
+    orientation_xyzw: Sequence[float],
     twist: Twist,
     *,
     stamp_s: float,
     odom_frame: str,
     base_frame: str,
 ) -> None:
-    """T_odom<-base and the body twist -> ``nav_msgs/Odometry``."""
+    """The base's pose in ``odom`` (a position and a quaternion x, y, z, w, copied as given: the message
+    carries float64, so the receiver gets these bits) and its body twist -> ``nav_msgs/Odometry``."""
     fill_header(msg.header, stamp_s=stamp_s, frame_id=odom_frame)
     msg.child_frame_id = base_frame
     position = msg.pose.pose.position
-    position.x, position.y, position.z = (float(v) for v in base_to_odom[:3, 3])
+    position.x, position.y, position.z = (float(v) for v in position_m)
     orientation = msg.pose.pose.orientation
-    orientation.x, orientation.y, orientation.z, orientation.w = matrix_to_quaternion(base_to_odom[:3, :3])
+    orientation.x, orientation.y, orientation.z, orientation.w = (float(v) for v in orientation_xyzw)
     fill_twist(msg.twist.twist, twist)
 
 
@@ -418,6 +435,7 @@ __all__ = [
     "odometry_to_transform",
     "odometry_to_twist",
     "pose2d_of",
+    "pose_to_transform",
     "quaternion_to_matrix",
     "stamp_to_ns",
     "stamp_to_s",

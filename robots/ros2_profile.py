@@ -24,8 +24,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
-import numpy as np
-
+from robots.mount import link_to_base, optical_to_base, rotation_from_rpy
 from semexp_bt.core.bounds import field_range
 from semexp_bt.core.config import ConfigError, config_from_dict
 from semexp_bt.core.types import FloatArray
@@ -33,10 +32,6 @@ from semexp_bt.files.yaml_source import YamlSourceError, load_yaml_file
 
 #: The shipped Go1 profile.
 GO1_PROFILE_PATH = Path(__file__).resolve().parent / "go1" / "ros2.yaml"
-
-#: REP-103: the optical frame (x right, y down, z forward) in its camera link frame (x forward, y left,
-#: z up). Columns are the optical axes written in the link frame.
-OPTICAL_IN_LINK = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
 
 #: The sensor streams the backend watches, by their key in ``topics``.
 SENSOR_STREAMS: tuple[str, ...] = ("odom", "imu", "joint_states", "color_image", "color_info", "depth_image")
@@ -193,30 +188,12 @@ class Ros2Profile:
     def camera_link_to_base(self) -> FloatArray:
         """T_base<-camera_link (4x4) from the mount."""
         m = self.camera.mount
-        out = np.eye(4)
-        out[:3, :3] = rotation_from_rpy(m.roll_rad, m.pitch_rad, m.yaw_rad)
-        out[:3, 3] = [m.x_m, m.y_m, m.z_m]
-        return out
+        return link_to_base((m.x_m, m.y_m, m.z_m), m.roll_rad, m.pitch_rad, m.yaw_rad)
 
     def optical_to_base(self) -> FloatArray:
-        """T_base<-optical (4x4): the mount, then REP-103's optical rotation."""
-        out = self.camera_link_to_base()
-        out[:3, :3] = out[:3, :3] @ OPTICAL_IN_LINK
-        return out
-
-
-def rotation_from_rpy(roll_rad: float, pitch_rad: float, yaw_rad: float) -> FloatArray:
-    """R = Rz(yaw) Ry(pitch) Rx(roll), the URDF / tf2 convention."""
-    cr, sr = math.cos(roll_rad), math.sin(roll_rad)
-    cp, sp = math.cos(pitch_rad), math.sin(pitch_rad)
-    cy, sy = math.cos(yaw_rad), math.sin(yaw_rad)
-    return np.array(
-        [
-            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-            [-sp, cp * sr, cp * cr],
-        ]
-    )
+        """T_base<-optical (4x4): the mount, then REP-103's optical rotation (``robots.mount``)."""
+        m = self.camera.mount
+        return optical_to_base((m.x_m, m.y_m, m.z_m), m.roll_rad, m.pitch_rad, m.yaw_rad)
 
 
 def read_profile_document(path: Path) -> Any:

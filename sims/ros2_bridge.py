@@ -33,11 +33,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import mujoco
-import numpy as np
-
 from robots.camera import CameraConfig
-from robots.go1 import TRUNK_BODY_NAME, load_go1_spec
+from robots.go1 import load_go1_spec
 from robots.interface import Fidelity, Robot
 from robots.mujoco_backend import MujocoRobot
 from robots.ros2_backend import SIM_LATCHED_QOS, SIM_QOS, import_rclpy, qos_profile, ros_context
@@ -176,7 +173,6 @@ class SimBridge:
             from robots.gait_policy import make_gait_controller
 
             self._gait = make_gait_controller()
-        self._trunk = mujoco.mj_name2id(self.robot.model, mujoco.mjtObj.mjOBJ_BODY, TRUNK_BODY_NAME)
         self._joint_names = load_go1_spec().joint_names
         self._period_ns = int(round(CONTROL_PERIOD_S * 1e9))
         self._steps = 0
@@ -283,14 +279,14 @@ class SimBridge:
         stamp_s = self._now_ns() * 1e-9
         frames = self.profile.frames
         robot = self.robot
-        mujoco.mj_kinematics(robot.model, robot.data)  # after mj_step the body poses lag qpos by a step
-        base_to_world = np.eye(4)
-        base_to_world[:3, :3] = robot.data.xmat[self._trunk].reshape(3, 3)
-        base_to_world[:3, 3] = robot.data.xpos[self._trunk]
+        # The simulator's own pose values (float64 on the wire): the executive derives its pose and the
+        # camera's from them exactly as the in-process backend does (MujocoRobot.base_odometry).
+        position, orientation = robot.base_odometry()
         odom = self._reused["odom"]
         fill_odometry(
             odom,
-            base_to_world,
+            position,
+            orientation,
             robot.base_twist(),
             stamp_s=stamp_s,
             odom_frame=frames.odom,

@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 
 from robots.camera import CameraConfig, depth_from_reversed_z
 from robots.go1 import load_go1_spec
+from robots.interface import Fidelity
 from robots.mjcf_scene import build_mjcf, geom_object_ids, object_id_from_geom_name
 from robots.mujoco_backend import BaseMotionLimits, MujocoRobot
 from semexp_bt.core.scene import SceneObject, SceneSpec
@@ -596,3 +597,51 @@ def test_pixel_grid_marks_every_stride_th_row_and_column_from_its_offset() -> No
     for bad in ({"stride": 0}, {"stride": 4, "offset": 4}, {"stride": 4, "offset": -1}, {"stride": 2.0}):
         with pytest.raises(InvalidInputError, match="PixelGrid"):
             PixelGrid(**bad)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("fidelity", ["kinematic", "dynamic"])
+def test_the_pose_is_reported_as_odometry_reports_it_to_the_bit(fidelity: Fidelity) -> None:
+    """``base_pose`` and ``camera_to_world`` are what the ROS 2 backend derives from ``/odom`` filled with
+    ``base_odometry`` (the simulation bridge's message), bit for bit, and the render's own camera pose
+    (MuJoCo's compiled camera) agrees with the reported one to rounding."""
+    from types import SimpleNamespace
+
+    from robots.ros2_messages import fill_odometry, odometry_to_transform, pose2d_of
+    from robots.ros2_profile import load_ros2_profile
+
+    def vector() -> SimpleNamespace:
+        return SimpleNamespace(x=0.0, y=0.0, z=0.0)
+
+    optical_to_base = load_ros2_profile().optical_to_base()
+    scene = build_scene("showroom", seed=9)
+    robot = MujocoRobot(
+        scene=scene, fidelity=fidelity, start_pose=sample_episode(scene, seed=9).start, seed=9
+    )
+    rng = np.random.default_rng(1)
+    try:
+        for step in range(120):
+            if step % 20 == 0:
+                robot.command_twist(Twist(*(float(v) for v in rng.uniform(-1.0, 1.0, 3))))
+            robot.advance(0.02)
+            odom = SimpleNamespace(
+                header=SimpleNamespace(stamp=SimpleNamespace(sec=0, nanosec=0), frame_id=""),
+                child_frame_id="",
+                pose=SimpleNamespace(pose=SimpleNamespace(position=vector(), orientation=vector())),
+                twist=SimpleNamespace(twist=SimpleNamespace(linear=vector(), angular=vector())),
+            )
+            odom.pose.pose.orientation.w = 1.0
+            position, orientation = robot.base_odometry()
+            fill_odometry(
+                odom, position, orientation, robot.base_twist(), stamp_s=0.0, odom_frame="o", base_frame="b"
+            )
+            base_to_odom = odometry_to_transform(odom)
+            assert robot.base_pose() == pose2d_of(base_to_odom)
+            if step % 30 == 29:
+                observation = robot.observe_depth(pixel_grids=[PixelGrid(stride=40)])
+                np.testing.assert_array_equal(observation.camera_to_world, base_to_odom @ optical_to_base)
+                assert observation.base_pose == robot.base_pose()
+                assert robot.camera is not None
+                rendered = robot.camera.camera_to_world(robot.data)
+                np.testing.assert_allclose(rendered, observation.camera_to_world, rtol=0.0, atol=1e-12)
+    finally:
+        robot.close()

@@ -41,6 +41,7 @@ from robots.ros2_messages import (
     image_to_segmentation,
     imu_to_reading,
     joint_state_from_msg,
+    matrix_to_quaternion,
     odometry_to_transform,
     odometry_to_twist,
     pose2d_of,
@@ -186,7 +187,15 @@ def test_odometry_round_trips_to_the_pose_and_the_body_twist(
     transform[:3, :3] = rotation_from_rpy(roll, pitch, yaw)
     transform[:3, 3] = [x, y, z]
     msg = Odometry()
-    fill_odometry(msg, transform, Twist(vx, 0.1, wz), stamp_s=7.25, odom_frame="odom", base_frame="base_link")
+    fill_odometry(
+        msg,
+        transform[:3, 3],
+        matrix_to_quaternion(transform[:3, :3]),
+        Twist(vx, 0.1, wz),
+        stamp_s=7.25,
+        odom_frame="odom",
+        base_frame="base_link",
+    )
     for decoded in _both_ways(msg, "nav_msgs/msg/Odometry"):
         np.testing.assert_allclose(odometry_to_transform(decoded), transform, atol=1e-12)
         pose = pose2d_of(odometry_to_transform(decoded))

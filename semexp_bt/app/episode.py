@@ -205,7 +205,9 @@ def run_episode(options: EpisodeOptions) -> dict[str, Any]:
             instructions=instructions,
             seed=options.seed,
             strategy_switches=strategy.switches,
-            start_pose=episode.start,
+            # Where the robot reports itself (None reads it), not the sampled start: the mission knows
+            # what a robot tells it, so it starts from the same bits in process and over ROS 2.
+            start_pose=None,
             max_time_s=options.max_sim_s,
             observers=observers,
             privileged=privileged,
