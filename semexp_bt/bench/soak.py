@@ -10,10 +10,14 @@ the kinds a leak would pile up (:func:`watched_types`).
 
 Floors: resident memory after the last mission within :data:`MAX_RSS_GROWTH` of what it was after the first
 mission (the first mission loads the models and builds the caches a process keeps), and the tick p99 not
-rising: the median p99 of the last third of the missions within :data:`P99_TOLERANCE` of the first third's
-(the tolerance is the run-to-run noise of a shared machine). The p99 the floor reads is the tick's CPU
-time on the executive's thread (``tick_cpu_ms``): work that piles up in the process raises it, while the
-wall-clock p99, also reported, on a shared machine measures the scheduler as much as the tree.
+rising: after the hour the soak runs its first mission once more, and that run's p99 must lie within
+:data:`P99_TOLERANCE` of the first run's. The same episode at both ends, because a mission's p99 is its
+planner's largest replanning tick, which depends on the area that mission explored: the first and last
+thirds of the missions (still reported) differ by what their scenes cost, not by what the process
+accumulated. The p99 read is the tick's CPU time on the executive's thread (``tick_cpu_ms``): work that
+piles up in the process raises it, while the wall-clock p99, also reported, on a shared machine measures
+the scheduler as much as the tree. The repeat also says whether the episode ran the same (outcome, ticks,
+path) at both ends of the process.
 """
 
 from __future__ import annotations
@@ -141,7 +145,6 @@ def run_soak(
         ``missions`` (one entry per mission), ``start`` and ``end`` (the first and last mission's
         figures), ``floors`` and ``floors_met``.
     """
-    from semexp_bt.app.episode import EpisodeOptions, run_episode
     from semexp_bt.bench.sweep import default_mission_path
 
     if relevance in ("embedding", "hybrid"):
@@ -153,55 +156,80 @@ def run_soak(
     elapsed_s = 0.0
     started = time.perf_counter()
     index = 0
+    # The soak's missions, then the first one again: the same episode at the start and at the end of the
+    # process is the tick p99 a growth would raise, whatever the scenes in between cost.
     while elapsed_s < sim_s and (max_missions is None or index < max_missions):
-        scene, seed = scenes[index % len(scenes)], index // len(scenes)
-        probe = MemoryProbe()
-        record = run_episode(
-            EpisodeOptions(
-                mission_path=mission,
-                scene=scene,
-                seed=seed,
-                relevance=relevance,
-                observers=[probe],
-                measure_tick_cpu=True,
-            )
-        )
-        del record["events"], record["decisions"]
-        gc.collect()
-        # Counted before the memory is read, so the count's own footprint (gc.get_objects' list of every
-        # object) is in every mission's figure from the first on, not a step after it.
-        alive = live_objects()
-        held_mb = round(resident_bytes() / 2**20, 1)
-        release_free_heap()
-        elapsed_s += float(record["sim_time_s"])
-        entry = {
-            "mission": index,
-            "scene": scene,
-            "seed": seed,
-            "outcome": record["outcome"],
-            "sim_time_s": round(float(record["sim_time_s"]), 1),
-            "sim_total_s": round(elapsed_s, 1),
-            "ticks": record["ticks"],
-            "tick_median_ms": round(record["tick_wall_ms"]["median"], 3),
-            "tick_p99_ms": round(record["tick_wall_ms"]["p99"], 3),
-            "tick_cpu_median_ms": round(record["tick_cpu_ms"]["median"], 3),
-            "tick_cpu_p99_ms": round(record["tick_cpu_ms"]["p99"], 3),
-            "memory_nodes": probe.nodes,
-            "memory_edges": probe.edges,
-            "rss_mb": round(resident_bytes() / 2**20, 1),
-            "rss_before_trim_mb": held_mb,
-            "blackboard_keys": len(py_trees.blackboard.Blackboard.storage),
-            "live_objects": alive,
-            "wall_s": round(time.perf_counter() - started, 1),
-        }
-        missions.append(entry)
+        episode = (scenes[index % len(scenes)], index // len(scenes), None)
+        elapsed_s += _run_one(episode, index, missions, mission, relevance, started, progress)
         index += 1
-        if progress is not None:
-            print(f"[soak] mission {index}: {scene}/{seed} {entry['outcome']}, sim {elapsed_s / 60:.1f} min, "
-                  f"rss {entry['rss_mb']} MB ({held_mb} MB before the trim), tick p99 {entry['tick_cpu_p99_ms']} ms CPU "
-                  f"({entry['tick_p99_ms']} ms wall), memory {probe.nodes} nodes",
-                  file=progress, flush=True)  # fmt: skip
+    if missions:
+        first = missions[0]
+        _run_one((first["scene"], first["seed"], 0), index, missions, mission, relevance, started, progress)
     return summarise(missions)
+
+
+def _run_one(
+    episode: tuple[str, int, int | None],
+    index: int,
+    missions: list[dict[str, Any]],
+    mission: Path,
+    relevance: str,
+    started: float,
+    progress: TextIO | None,
+) -> float:
+    """Run one soak mission (``(scene, seed, repeat_of)``), append its entry; the robot time it took."""
+    from semexp_bt.app.episode import EpisodeOptions, run_episode
+
+    scene, seed, repeat_of = episode
+    probe = MemoryProbe()
+    record = run_episode(
+        EpisodeOptions(
+            mission_path=mission,
+            scene=scene,
+            seed=seed,
+            relevance=relevance,
+            observers=[probe],
+            measure_tick_cpu=True,
+        )
+    )
+    del record["events"], record["decisions"]
+    gc.collect()
+    # Counted before the memory is read, so the count's own footprint (gc.get_objects' list of every
+    # object) is in every mission's figure from the first on, not a step after it.
+    alive = live_objects()
+    held_mb = round(resident_bytes() / 2**20, 1)
+    release_free_heap()
+    sim_total_s = (missions[-1]["sim_total_s"] if missions else 0.0) + float(record["sim_time_s"])
+    entry = {
+        "mission": index,
+        "scene": scene,
+        "seed": seed,
+        "repeat_of": repeat_of,
+        "outcome": record["outcome"],
+        "sim_time_s": round(float(record["sim_time_s"]), 1),
+        "sim_total_s": round(sim_total_s, 1),
+        "ticks": record["ticks"],
+        "path_length_m": record["path_length_m"],
+        "tick_median_ms": round(record["tick_wall_ms"]["median"], 3),
+        "tick_p99_ms": round(record["tick_wall_ms"]["p99"], 3),
+        "tick_cpu_median_ms": round(record["tick_cpu_ms"]["median"], 3),
+        "tick_cpu_p99_ms": round(record["tick_cpu_ms"]["p99"], 3),
+        "memory_nodes": probe.nodes,
+        "memory_edges": probe.edges,
+        "rss_mb": round(resident_bytes() / 2**20, 1),
+        "rss_before_trim_mb": held_mb,
+        "blackboard_keys": len(py_trees.blackboard.Blackboard.storage),
+        "live_objects": alive,
+        "wall_s": round(time.perf_counter() - started, 1),
+    }
+    missions.append(entry)
+    if progress is not None:
+        again = "" if repeat_of is None else f" (mission {repeat_of} again)"
+        print(f"[soak] mission {index + 1}{again}: {scene}/{seed} {entry['outcome']}, sim {sim_total_s / 60:.1f} min, "
+              f"rss {entry['rss_mb']} MB ({held_mb} MB before the trim), tick p99 {entry['tick_cpu_p99_ms']} ms CPU "
+              f"({entry['tick_p99_ms']} ms wall), memory {probe.nodes} nodes",
+              file=progress, flush=True)  # fmt: skip
+    return float(record["sim_time_s"])
 
 
 def summarise(missions: list[dict[str, Any]]) -> dict[str, Any]:
@@ -209,6 +237,7 @@ def summarise(missions: list[dict[str, Any]]) -> dict[str, Any]:
     if not missions:
         return {"missions": [], "floors": {}, "floors_met": False}
     first, last = missions[0], missions[-1]
+    repeat = next((m for m in missions if m.get("repeat_of") == 0), None)
     third = max(1, len(missions) // 3)
     p99_start = statistics.median(m["tick_cpu_p99_ms"] for m in missions[:third])
     p99_end = statistics.median(m["tick_cpu_p99_ms"] for m in missions[-third:])
@@ -223,8 +252,9 @@ def summarise(missions: list[dict[str, Any]]) -> dict[str, Any]:
         f"resident memory grows under {MAX_RSS_GROWTH:.0%} after the first mission": bool(
             growth < MAX_RSS_GROWTH
         ),
-        f"tick p99 (CPU) not rising (last third within {P99_TOLERANCE:.0%} of the first)": bool(
-            p99_end <= p99_start * (1.0 + P99_TOLERANCE)
+        f"tick p99 (CPU) not rising (the first mission run again within {P99_TOLERANCE:.0%} of its first run)": bool(
+            repeat is not None
+            and repeat["tick_cpu_p99_ms"] <= first["tick_cpu_p99_ms"] * (1.0 + P99_TOLERANCE)
         ),
     }
     return {
@@ -241,6 +271,14 @@ def summarise(missions: list[dict[str, Any]]) -> dict[str, Any]:
             "tick_cpu_p99_ms": p99_end,
             "tick_p99_ms": wall_p99_end,
             "memory_nodes": last["memory_nodes"],
+        },
+        "repeat": None
+        if repeat is None
+        else {
+            "tick_cpu_p99_ms": repeat["tick_cpu_p99_ms"],
+            "first_tick_cpu_p99_ms": first["tick_cpu_p99_ms"],
+            "same_episode": (repeat["outcome"], repeat["ticks"], repeat.get("path_length_m"))
+            == (first["outcome"], first["ticks"], first.get("path_length_m")),
         },
         "rss_growth": round(growth, 4),
         "rss_growth_after_first_round": round(round_growth, 4),
@@ -267,6 +305,13 @@ def format_table(result: dict[str, Any]) -> str:
             "- resident memory growth after every scene's first mission: "
             f"{100 * result['rss_growth_after_first_round']:.1f} %"
         )
+        if result.get("repeat"):
+            again = result["repeat"]
+            lines.append(
+                f"- tick p99, CPU, the first mission and the same mission at the end: "
+                f"{again['first_tick_cpu_p99_ms']:.2f} ms -> {again['tick_cpu_p99_ms']:.2f} ms "
+                f"(the same episode again: {'yes' if again['same_episode'] else 'NO'})"
+            )
         lines.append(
             f"- tick p99, CPU: {result['start']['tick_cpu_p99_ms']:.2f} ms (first third) -> "
             f"{result['end']['tick_cpu_p99_ms']:.2f} ms (last third); wall: "
