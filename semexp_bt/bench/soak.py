@@ -41,7 +41,7 @@ DEFAULT_SCENES = ("office", "living_room", "laboratory")
 DEFAULT_SIM_S = 3600.0
 #: Resident memory may grow this much (a fraction) after the first mission.
 MAX_RSS_GROWTH = 0.05
-#: The last third's median tick p99 may exceed the first third's by this fraction.
+#: The first mission run again at the end may have a tick p99 (CPU) this fraction above its first run.
 P99_TOLERANCE = 0.2
 
 
