@@ -480,10 +480,6 @@ class MujocoRobot(Robot):
         w, qx, qy, qz = (float(v) for v in qpos[3:7])
         return (float(qpos[0]), float(qpos[1]), float(qpos[2])), (qx, qy, qz, w)
 
-    def base_to_world(self) -> FloatArray:
-        """T_world<-trunk (4x4) of :meth:`base_odometry` (a copy)."""
-        return self._base_transform().copy()
-
     def _base_transform(self) -> FloatArray:
         # base_pose is read several times a tick: convert once per state (qpos bytes as the key).
         key = self.data.qpos[: self._pose_coordinates].tobytes()

@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
-from robots.mount import link_to_base, optical_to_base, rotation_from_rpy
+from robots.mount import link_to_base, optical_to_base
 from semexp_bt.core.bounds import field_range
 from semexp_bt.core.config import ConfigError, config_from_dict
 from semexp_bt.core.types import FloatArray
@@ -262,5 +262,4 @@ __all__ = [
     "load_ros2_profile",
     "profile_from_dict",
     "read_profile_document",
-    "rotation_from_rpy",
 ]

@@ -25,6 +25,7 @@ from rosbags.typesys import Stores, get_typestore
 from sensor_msgs.msg import CameraInfo, Image, Imu, JointState
 
 from robots.go1 import load_go1_spec
+from robots.mount import rotation_from_rpy
 from robots.ros2_messages import (
     MessageError,
     camera_info_to_intrinsics,
@@ -47,7 +48,6 @@ from robots.ros2_messages import (
     pose2d_of,
     twist_from_msg,
 )
-from robots.ros2_profile import rotation_from_rpy
 from semexp_bt.core.types import CameraIntrinsics, ImuReading, Twist
 from semexp_bt.core.types import JointState as JointStateValue
 
