@@ -217,8 +217,8 @@ def run_mission(
             strategies only.
         registry: the node registry (default: the product's).
         measure_tick_cpu: also time each tick's thread CPU (``MissionResult.tick_cpu_s``). Off by default:
-            a thread-CPU clock read is a system call, not the vDSO read of ``perf_counter``; two per tick
-            cost a plain mission about 5 % more CPU on the development VM.
+            a thread-CPU clock read is a system call, not the vDSO read of ``perf_counter``, and only the
+            soak reads the figure.
     """
     robot = components.robot
     settings = mission.settings
