@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import os
 import random
+import signal
 import subprocess
 import sys
 import time
@@ -19,6 +20,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 LOOPBACK_PROFILE = ROOT / "scripts" / "fastdds_loopback.xml"
 MISSION = ROOT / "trees" / "object_search.yaml"
+#: How long :func:`stop` leaves a process to print its stacks.
+STACK_DUMP_S = 1.0
 
 #: The domain ids drawn in this process, so that no two tests share one.
 _USED_DOMAINS: set[int] = set()
@@ -70,9 +73,17 @@ def semexp(args: Sequence[str], *, env: Mapping[str, str], log: Path) -> subproc
     )
 
 
-def stop(process: subprocess.Popen[bytes], *, timeout_s: float = 20.0) -> int:
-    """SIGTERM, then SIGKILL after ``timeout_s``; the exit status."""
+def stop(process: subprocess.Popen[bytes], *, timeout_s: float = 20.0, dump_stacks: bool = False) -> int:
+    """SIGTERM, then SIGKILL after ``timeout_s``; the exit status.
+
+    ``dump_stacks``: first SIGUSR1, on which a running semexp-bt ROS 2 command prints every thread's stack
+    to its log (semexp_bt/cli/process_end.py): where a process that outlived its test was. Only for a
+    process past its start (before, SIGUSR1 would end it).
+    """
     if process.poll() is None:
+        if dump_stacks:
+            process.send_signal(signal.SIGUSR1)
+            time.sleep(STACK_DUMP_S)
         process.terminate()
         try:
             return process.wait(timeout=timeout_s)

@@ -150,12 +150,15 @@ def _run_pair(
             env=env,
             log=tmp_path / "executive.log",
         )
-        rc = executive.wait(timeout=600)
-        bridge.wait(timeout=60)
+        try:
+            rc = executive.wait(timeout=600)
+            bridge.wait(timeout=60)
+        finally:
+            stop(executive, dump_stacks=True)
     finally:
-        stop(bridge)
-    print((tmp_path / "executive.log").read_text()[-2000:])
-    print((tmp_path / "bridge.log").read_text()[-2000:])
+        stop(bridge, dump_stacks=True)
+        print((tmp_path / "executive.log").read_text()[-4000:])
+        print((tmp_path / "bridge.log").read_text()[-4000:])
     return json.loads(exec_json.read_text()), json.loads(bridge_json.read_text()), rc, ticks
 
 

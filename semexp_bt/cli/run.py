@@ -144,11 +144,13 @@ def _run_ros2(args: argparse.Namespace) -> int:
     from robots.ros2_backend import Ros2Error
     from semexp_bt.app.configuration import read_config_file
     from semexp_bt.app.ros2_mission import Ros2MissionOptions, run_ros2_mission
+    from semexp_bt.cli.process_end import bound_the_teardown, dump_stacks_on_request
 
     def on_sigterm(signum: int, frame: FrameType | None) -> None:
         del signum, frame
         raise KeyboardInterrupt  # the mission stops the robot and writes its record
 
+    dump_stacks_on_request()
     signal.signal(signal.SIGTERM, on_sigterm)
     try:
         record = run_ros2_mission(
@@ -171,6 +173,7 @@ def _run_ros2(args: argparse.Namespace) -> int:
         return 2
     if args.json is not None:
         write_json(args.json, record)
+    bound_the_teardown()  # the robot is closed and the record written: only the interpreter's exit is left
     halted = record["halted_by"]
     if halted is not None and halted["topic"] is not None:
         print(f"error: robot halted: {halted['topic']}: {halted['reason']}", file=sys.stderr)

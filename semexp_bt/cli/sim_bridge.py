@@ -66,7 +66,10 @@ def run(args: argparse.Namespace) -> int:
 
     torch.set_num_threads(1)
     from robots.ros2_backend import Ros2Error
+    from semexp_bt.cli.process_end import bound_the_teardown, dump_stacks_on_request
     from sims.ros2_bridge import BridgeOptions, SimBridge
+
+    dump_stacks_on_request()
 
     try:
         bridge = SimBridge(
@@ -99,8 +102,9 @@ def run(args: argparse.Namespace) -> int:
         flush=True,
     )
     try:
-        result = bridge.run()
+        result = bridge.run()  # writes the result file
     finally:
+        bound_the_teardown()
         bridge.close()
     reached = result["reached_object"]["label"] if result["reached_object"] else "nothing"
     print(
