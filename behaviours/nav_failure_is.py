@@ -23,8 +23,10 @@ import py_trees
 from behaviours.base import SemExpBehaviour
 from behaviours.spec import param
 
-#: The values ``nav_failure`` takes (who writes them: ComputePathToSubgoal, FollowPath, StuckGuard).
-NAV_FAILURES = ("no_path", "start_blocked", "blocked", "stuck")
+#: The values ``nav_failure`` takes (who writes them: ComputePathToSubgoal, FollowPath, StuckGuard,
+#: WatchForTarget: ``superseded``, the subgoal handed back because the instructed object came into view).
+SUPERSEDED = "superseded"
+NAV_FAILURES = ("no_path", "start_blocked", "blocked", "stuck", SUPERSEDED)
 #: The kinds that mean no plan reaches the subgoal (the default; each node gets its own checked copy).
 UNREACHABLE_KINDS = ["no_path", "start_blocked"]
 

@@ -90,7 +90,8 @@ SCHEMA: dict[str, KeySpec] = {
         KeySpec(
             "nav_failure",
             (str, _NONE),
-            "why navigation to the subgoal last failed (no_path, start_blocked, blocked, stuck) or None",
+            "why navigation to the subgoal last failed (no_path, start_blocked, blocked, stuck) or was handed "
+            "back (superseded: the instructed object came into view), or None",
         ),
         KeySpec("subgoal", (Subgoal, _NONE), "the subgoal being executed"),
         KeySpec("decision", (object,), "the last DecisionResult or None"),

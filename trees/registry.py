@@ -688,6 +688,7 @@ def product_behaviours() -> list[NodeSpec]:
     from behaviours.update_costmap import UpdateCostmap
     from behaviours.update_memory import UpdateMemory
     from behaviours.wait import Wait
+    from behaviours.watch_for_target import WatchForTarget
 
     return [
         behaviour_spec(RateLimiter),
@@ -701,6 +702,7 @@ def product_behaviours() -> list[NodeSpec]:
         behaviour_spec(UpdateCostmap),
         behaviour_spec(ComputePathToSubgoal),
         behaviour_spec(FollowPath),
+        behaviour_spec(WatchForTarget),
         behaviour_spec(Gait),
         behaviour_spec(ConfirmTarget),
         behaviour_spec(StopRobot),

@@ -35,7 +35,7 @@ class Strategy:
         detector_profile: which emulated detector (``detector`` = GroundingDINO-like,
             ``detector_yolo_world``).
         config_overrides: SemExpConfig overrides (nested mapping); the ``config:`` of its entry.
-        switches: named switches for behaviours (``evidence``, ``decision``).
+        switches: named switches for behaviours (``evidence``, ``decision``, ``perception``).
     """
 
     name: str
