@@ -24,7 +24,8 @@ from behaviours.services import MissionServices, mission_services
 from behaviours.spec import BlackboardKey, BuildContext, ParamSpec
 from blackboard.schema import SCHEMA, checked_write, key_access, register_keys
 from semexp_bt.core.relevance import NAMES_OBJECT_RELEVANCE
-from semexp_bt.core.types import Twist
+from semexp_bt.core.types import Observation, Twist
+from semexp_bt.perception.interface import PerceptionJob
 
 #: Names a parameter cannot take: py_trees' instance state, the base class's, and the constructor's own
 #: keywords.
@@ -139,6 +140,17 @@ class SemExpBehaviour(py_trees.behaviour.Behaviour):
 
     def now_s(self) -> float:
         return self.services.clock()
+
+    def submit_view(self, observation: Observation) -> PerceptionJob:
+        """Ask perception about ``observation`` for the current instruction, with the base's twist of
+        now (a moving camera sees worse); needs ``instruction`` and ``target_label`` in READS."""
+        return self.services.perception.submit(
+            observation=observation,
+            instruction=self.read("instruction"),
+            target_label=self.read("target_label"),
+            motion=self.services.robot.base_twist(),
+            now_s=self.now_s(),
+        )
 
     def command(self, twist: Twist) -> None:
         """Publish a base velocity command for the gait (needs ``cmd_twist`` and ``cmd_stamp_s`` in WRITES)."""

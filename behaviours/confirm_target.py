@@ -59,7 +59,7 @@ import py_trees
 from behaviours.base import SemExpBehaviour
 from behaviours.spec import param
 from semexp_bt.core.evidence import ArbitrationResult, arbitrate, candidate_box
-from semexp_bt.core.geometry import back_project, object_surface_depth
+from semexp_bt.core.geometry import locate_in_view
 from semexp_bt.core.relevance import NAMES_OBJECT_RELEVANCE
 from semexp_bt.core.types import Observation, SceneEvidence
 from semexp_bt.perception.interface import PerceptionJob
@@ -207,15 +207,9 @@ class ConfirmTarget(SemExpBehaviour):
         def nearby_point(
             pixel: tuple[float, float], box: tuple[float, float, float, float] | None
         ) -> np.ndarray | None:
-            depth = object_surface_depth(observation.depth_m, pixel, box, patch)
-            if depth is None:
+            point = locate_in_view(observation, pixel, box, patch)
+            if point is None:
                 return None
-            point = back_project(
-                pixel_px=pixel,
-                depth_m=depth,
-                intrinsics=observation.intrinsics,
-                camera_to_world=observation.camera_to_world,
-            )
             reach = self.confirm_radius_m + self.vote_slack_m
             if math.hypot(point[0] - pose.x_m, point[1] - pose.y_m) > reach:
                 return None
@@ -286,15 +280,8 @@ class ConfirmTarget(SemExpBehaviour):
         if self._votes >= self.extra_views:
             return self._succeed()
         if self._job is None:
-            robot = self.services.robot
-            self._observation = robot.observe()
-            self._job = self.services.perception.submit(
-                observation=self._observation,
-                instruction=self.read("instruction"),
-                target_label=self.read("target_label"),
-                motion=robot.base_twist(),
-                now_s=self.now_s(),
-            )
+            self._observation = self.services.robot.observe()
+            self._job = self.submit_view(self._observation)
             self.feedback_message = (
                 f"confirming {self._label!r}: {self._votes}/{self.extra_views} votes, "
                 f"view {self._views + 1} of at most {self.max_extra_views}"

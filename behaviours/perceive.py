@@ -84,13 +84,7 @@ class Perceive(SemExpBehaviour):
             local_map = self.read("local_map")
             if local_map is not None:
                 local_map.integrate(observation)
-            self._job = self.services.perception.submit(
-                observation=observation,
-                instruction=self.read("instruction"),
-                target_label=self.read("target_label"),
-                motion=robot.base_twist(),
-                now_s=self.now_s(),
-            )
+            self._job = self.submit_view(observation)
             self.feedback_message = "models thinking"
             return py_trees.common.Status.RUNNING
         result = self._job.poll(now_s=self.now_s())

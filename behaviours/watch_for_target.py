@@ -47,7 +47,7 @@ from behaviours.nav_failure_is import SUPERSEDED
 from behaviours.spec import param
 from semexp_bt.core.clock import has_elapsed
 from semexp_bt.core.evidence import ArbitrationResult, arbitrate, candidate_box
-from semexp_bt.core.geometry import back_project, object_surface_depth
+from semexp_bt.core.geometry import locate_in_view
 from semexp_bt.core.relevance import NAMES_OBJECT_RELEVANCE
 from semexp_bt.core.types import Observation
 from semexp_bt.perception.interface import PerceptionJob
@@ -110,16 +110,9 @@ class WatchForTarget(SemExpBehaviour):
             return py_trees.common.Status.RUNNING
         if self._job is None:
             if has_elapsed(since_s=self._last_view_s, now_s=self.now_s(), duration_s=self.period_s):
-                robot = self.services.robot
-                self._observation = robot.observe()
+                self._observation = self.services.robot.observe()
                 self._last_view_s = self.now_s()
-                self._job = self.services.perception.submit(
-                    observation=self._observation,
-                    instruction=self.read("instruction"),
-                    target_label=self.read("target_label"),
-                    motion=robot.base_twist(),
-                    now_s=self.now_s(),
-                )
+                self._job = self.submit_view(self._observation)
             return py_trees.common.Status.RUNNING
         result = self._job.poll(now_s=self.now_s())
         if result is None:
@@ -166,20 +159,14 @@ class WatchForTarget(SemExpBehaviour):
                 continue
             if not self.names_instructed_object(candidate.label, threshold=self.align_threshold):
                 continue
-            depth = object_surface_depth(
-                observation.depth_m,
+            point = locate_in_view(
+                observation,
                 candidate.pixel_px,
                 candidate_box(candidate, scene),
                 config.arbitration.depth_patch_px,
             )
-            if depth is None or not math.isfinite(depth):
+            if point is None:
                 continue
-            point = back_project(
-                pixel_px=candidate.pixel_px,
-                depth_m=depth,
-                intrinsics=observation.intrinsics,
-                camera_to_world=observation.camera_to_world,
-            )
             update = memory.update(
                 position_m=tuple(float(v) for v in point),
                 label=candidate.label,

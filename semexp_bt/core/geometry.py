@@ -26,7 +26,14 @@ from typing import Any, overload
 import numpy as np
 import numpy.typing as npt
 
-from semexp_bt.core.types import CameraIntrinsics, FloatArray, InvalidInputError, Pose2D, require_finite
+from semexp_bt.core.types import (
+    CameraIntrinsics,
+    FloatArray,
+    InvalidInputError,
+    Observation,
+    Pose2D,
+    require_finite,
+)
 
 #: Tolerance on ``R R^T = I`` and ``det R = 1`` when checking that a transform is rigid. Loose enough for
 #: float32 quaternion round trips, tight enough to catch a scaled or sheared matrix.
@@ -536,6 +543,26 @@ def object_surface_depth(
     if values.size == 0:
         return robust_depth(depth_m, pixel, patch_px)
     return float(np.percentile(values, percentile))
+
+
+def locate_in_view(
+    observation: Observation,
+    pixel: Sequence[float],
+    box_xyxy: Sequence[float] | None,
+    patch_px: int,
+) -> FloatArray | None:
+    """The world point of the object a candidate points at in ``observation`` (its range by
+    :func:`object_surface_depth`, back-projected through the frame's own camera pose: Eq. 5), or None
+    without a finite range there."""
+    depth = object_surface_depth(observation.depth_m, pixel, box_xyxy, patch_px)
+    if depth is None or not math.isfinite(depth):
+        return None
+    return back_project(
+        pixel_px=pixel,
+        depth_m=depth,
+        intrinsics=observation.intrinsics,
+        camera_to_world=observation.camera_to_world,
+    )
 
 
 # ----------------------------------------------------------------------------------------------------------
