@@ -19,7 +19,7 @@ from robots.null_robot import NullRobot
 from semexp_bt.core.types import InvalidInputError, Pose2D, Twist
 from semexp_bt.nav.controller import MotionLimits, SafetyRules, admissible, footprint_clearance, rollout
 from semexp_bt.nav.costmap import INSCRIBED_COST, LETHAL_COST, NO_INFORMATION_COST, Costmap, CostmapConfig
-from semexp_bt.nav.dwb import DwbController
+from semexp_bt.nav.dwb import DwbConfig, DwbController, OscillationGuard
 from semexp_bt.nav.footprint import Footprint
 from semexp_bt.nav.frontiers import costmap_frontiers
 from semexp_bt.nav.global_planner import GlobalPlanner
@@ -320,3 +320,64 @@ def test_assuming_the_start_free_keeps_what_was_seen() -> None:
     costmap.assume_free_around((0.0, 0.0), radius_m=0.5)
     np.testing.assert_array_equal(costmap.lethal(), lethal_before)
     assert lethal_before.any()
+
+
+# ------------------------------------------------------------------ issue #17, oscillation critic
+def test_a_turn_that_flipped_may_not_flip_back_until_the_base_has_turned_or_moved() -> None:
+    """Nav2's OscillationCritic: left, then right, then left again is refused until 0.2 rad or 0.05 m."""
+    guard = OscillationGuard(reset_dist_m=0.05, reset_angle_rad=0.2)
+    start = Pose2D(0.0, 0.0, 0.0)
+    left, right, ahead = [0.0, 0.5], [0.0, -0.5], [0.4, 0.0]
+    targets = np.array([left, right, ahead])
+    guard.commanded(start, Twist(angular_z_radps=0.5))
+    assert not guard.forbidden(start, targets).any()  # one direction so far
+    guard.commanded(start, Twist(angular_z_radps=-0.5))  # the flip
+    assert guard.forbidden(Pose2D(0.0, 0.0, -0.1), targets).tolist() == [True, False, False]
+    assert not guard.forbidden(Pose2D(0.0, 0.0, -0.21), targets).any()  # turned far enough
+    guard.commanded(Pose2D(0.0, 0.0, -0.21), Twist(angular_z_radps=0.5))  # flips again
+    assert guard.forbidden(Pose2D(0.03, 0.0, -0.2), targets).tolist() == [False, True, False]
+    assert not guard.forbidden(Pose2D(0.06, 0.0, -0.2), targets).any()  # moved far enough
+    guard.reset()
+    guard.commanded(start, Twist(linear_x_mps=0.4))
+    guard.commanded(start, Twist(linear_x_mps=-0.2))  # forward, then backing up
+    assert guard.forbidden(start, targets).tolist() == [False, False, True]
+
+
+@pytest.mark.parametrize(
+    "guarded, unguarded",
+    [
+        (
+            DwbController(),
+            DwbController(DwbConfig(oscillation_reset_dist_m=0.0, oscillation_reset_angle_rad=0.0)),
+        ),
+        (RegulatedPurePursuit(), None),
+    ],
+    ids=["dwb", "rpp"],
+)
+def test_the_controller_keeps_turning_the_way_it_flipped_to_when_the_path_swings_back(
+    guarded, unguarded
+) -> None:  # type: ignore[no-untyped-def]
+    """In a known empty room: the path to the left asks a left turn, then a path to the right a right turn;
+    the path to the left again does not get a left turn at the same pose (the sampler without its critic
+    turns left again; pursuit's own rotation to the left would)."""
+    room = np.zeros((160, 160), dtype=bool)
+    room[[0, -1], :] = True
+    room[:, [0, -1]] = True
+    costmap = Costmap(CostmapConfig(), footprint=FOOTPRINT, origin_xy=(0.0, 0.0))
+    costmap.set_known(room, lower_left_xy=(-4.0, -4.0), resolution_m=0.05)
+    pose = Pose2D(0.0, 0.0, 0.0)
+    planner = GlobalPlanner()
+    to_the_left = planner.plan(costmap, start_xy=(0.0, 0.0), goal_xy=(0.0, 2.5))
+    to_the_right = planner.plan(costmap, start_xy=(0.0, 0.0), goal_xy=(0.0, -2.5))
+
+    def turn(controller, plan) -> float:  # type: ignore[no-untyped-def]
+        return controller.compute(
+            plan=plan, costmap=costmap, pose=pose, velocity=Twist(), stamp_s=0.0
+        ).twist.angular_z_radps
+
+    for controller in (guarded, unguarded):
+        if controller is not None:
+            assert turn(controller, to_the_left) > 0 and turn(controller, to_the_right) < 0
+    if unguarded is not None:
+        assert turn(unguarded, to_the_left) > 0
+    assert turn(guarded, to_the_left) <= 0

@@ -17,8 +17,13 @@ Nav2's DWB samples velocities in the dynamic window, simulates each for a short 
    - ``align``: the heading at the end against the path's direction ahead (look where it goes: the
      camera only sees forward);
    - ``obstacle``: mean of ``exp(-obstacle_decay (clearance - min_clearance))`` over the states;
-   - ``smooth``: the change of yaw rate from the last command (no dithering, Nav2's oscillation critic);
+   - ``smooth``: the change of yaw rate from the last command (a soft preference for steady turns);
    - ``stall``: standing still while the path is not done;
+
+   and, as Nav2's OscillationCritic does, refuses outright a turn (or drive) direction that would flip back
+   a direction change made since the robot last turned ``oscillation_reset_angle_rad`` or moved
+   ``oscillation_reset_dist_m`` (:class:`OscillationGuard`): a left turn refused, a right turn taken, then
+   the left turn admissible again is a dither the scores alone cannot break;
 
 4. commands the best one's first twist, regulated by its clearance.
 
@@ -32,6 +37,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+import numpy.typing as npt
 
 from semexp_bt.core.types import FloatArray, Pose2D, Twist
 from semexp_bt.nav.controller import (
@@ -78,6 +84,54 @@ class DwbConfig:
     approach_gain: float = 0.8
     """Near the end of the path the speed is capped at this x the distance left (m/s per m)."""
     min_approach_speed_mps: float = 0.15
+    oscillation_reset_dist_m: float = 0.05
+    """A flipped direction may flip back once the base has moved this far (Nav2's value)."""
+    oscillation_reset_angle_rad: float = 0.2
+    """... or turned this far (Nav2's value)."""
+
+
+class OscillationGuard:
+    """Nav2's oscillation critic: once a command's turn (or drive) direction flips, the direction it flipped
+    from is forbidden until the base has moved ``reset_dist_m`` or turned ``reset_angle_rad`` since the flip.
+
+    Example: a left turn (+w) commanded, then a right turn (-w): left turns are refused until the base has
+    turned 0.2 rad (or moved 0.05 m); then either direction is open again.
+    """
+
+    def __init__(self, reset_dist_m: float, reset_angle_rad: float) -> None:
+        self.reset_dist_m = reset_dist_m
+        self.reset_angle_rad = reset_angle_rad
+        self.reset()
+
+    def reset(self) -> None:
+        self._last_sign = np.zeros(2)  # the last non-zero sign of (v, w)
+        self._forbidden = np.zeros(2)  # the sign of (v, w) that may not come back yet, 0 for none
+        self._flip_pose: Pose2D | None = None
+
+    def forbidden(self, pose: Pose2D, targets: FloatArray) -> npt.NDArray[np.bool_]:
+        """A ``(K,)`` mask of the ``(K, 2)`` (v, w) targets that would flip a direction back too soon."""
+        if self._flip_pose is not None:
+            moved = math.hypot(pose.x_m - self._flip_pose.x_m, pose.y_m - self._flip_pose.y_m)
+            turned = abs(math.remainder(pose.yaw_rad - self._flip_pose.yaw_rad, math.tau))
+            if moved >= self.reset_dist_m or turned >= self.reset_angle_rad:
+                self._forbidden[:] = 0.0
+                self._flip_pose = None
+        signs = np.where(np.abs(targets) > _MOTION_EPS, np.sign(targets), 0.0)
+        return ((signs == self._forbidden) & (self._forbidden != 0.0)).any(axis=1)
+
+    def commanded(self, pose: Pose2D, twist: Twist) -> None:
+        """Note the command sent at ``pose``: a direction that flipped starts a guard."""
+        for axis, value in enumerate((twist.linear_x_mps, twist.angular_z_radps)):
+            if abs(value) <= _MOTION_EPS:
+                continue
+            sign = math.copysign(1.0, value)
+            if self._last_sign[axis] == -sign:
+                self._forbidden[axis] = -sign
+                self._flip_pose = pose
+            self._last_sign[axis] = sign
+
+
+_MOTION_EPS = 1e-6
 
 
 class DwbController:
@@ -90,11 +144,16 @@ class DwbController:
         self._last = Twist.zero()
         self._progress = 0
         self._path_id: int | None = None
+        #: Public so that a controller that hands cycles to this one (RPP) shares its guard.
+        self.oscillation = OscillationGuard(
+            self.config.oscillation_reset_dist_m, self.config.oscillation_reset_angle_rad
+        )
 
     def reset(self) -> None:
         self._last = Twist.zero()
         self._progress = 0
         self._path_id = None
+        self.oscillation.reset()
 
     def _targets(self, max_forward: float) -> FloatArray:
         cfg, lim = self.config, self.config.limits
@@ -125,6 +184,7 @@ class DwbController:
             pose, velocity, targets, limits=cfg.limits, horizon_s=cfg.horizon_s, dt_s=cfg.dt_s
         )
         ok, least = admissible(costmap, pose, states, commands, rules=cfg.rules)
+        ok = np.logical_and(ok, ~self.oscillation.forbidden(pose, targets))
         if not ok.any():
             self._last = Twist.zero()
             return ControlResult(Twist.zero(), "blocked", candidates=(len(targets), 0))
@@ -164,6 +224,7 @@ class DwbController:
         v, w = regulate(float(targets[k, 0]), float(targets[k, 1]), float(least[k]), rules=cfg.rules)
         twist = Twist(linear_x_mps=v, angular_z_radps=w)
         self._last = twist
+        self.oscillation.commanded(pose, twist)
         status: ControlStatus
         if abs(v) < 1e-6 and abs(w) < 1e-6:
             status = "blocked"  # standing still is the best there is: no admissible motion helps
