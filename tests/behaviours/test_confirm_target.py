@@ -90,3 +90,40 @@ def test_halting_it_cancels_the_pending_view(make_rig: Callable[..., Rig]) -> No
     rig.halt(confirm)
     assert len(jobs) == 1 and jobs[0].cancelled
     assert rig.get("found_objects") == []
+
+
+#: The instructed object with its front surface 1.2 m from the robot: voted for, but beyond r_s = 1 m.
+FAR_TARGET = Post(1, 1.4, 0.0, vlm_label="fire extinguisher", detector_label="fire extinguisher")
+
+
+def test_votes_from_just_beyond_the_success_radius_ask_for_a_closer_look(
+    make_rig: Callable[..., Rig],
+) -> None:
+    rig = make_rig(
+        robot=robot_among(FAR_TARGET), script=[seeing([FAR_TARGET], directions=False)], latency_s=1.0
+    )
+    rig.get("memory").add_master(position_m=(0.0, 0.0, 0.0), stamp_s=0.0)
+    rig.stage_view([FAR_TARGET])
+    confirm = rig.build(ConfirmTarget)
+    statuses = rig.tick_until_done(confirm)
+    rig.show(confirm)
+    assert compact(statuses) == ["RUNNING", "FAILURE"]
+    assert confirm.feedback_message.endswith("m away; a closer look asked")
+    look = rig.get("closer_look")
+    assert look.label == "fire extinguisher" and 1.0 < look.distance_m <= 1.3
+    assert look.position_m[0] == pytest.approx(1.2, abs=0.1) and look.position_m[1] == pytest.approx(
+        0.0, abs=0.1
+    )
+    assert rig.get("found_objects") == [] and "closer_look" in rig.written_by(confirm)
+
+
+def test_without_slack_votes_from_beyond_the_radius_only_fail(make_rig: Callable[..., Rig]) -> None:
+    rig = make_rig(
+        robot=robot_among(FAR_TARGET), script=[seeing([FAR_TARGET], directions=False)], latency_s=1.0
+    )
+    rig.get("memory").add_master(position_m=(0.0, 0.0, 0.0), stamp_s=0.0)
+    rig.stage_view([FAR_TARGET])
+    confirm = rig.build(ConfirmTarget, closer_look_slack_m=0.0)
+    assert compact(rig.tick_until_done(confirm)) == ["RUNNING", "FAILURE"]
+    rig.show(confirm)
+    assert rig.get("closer_look") is None
