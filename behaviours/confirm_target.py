@@ -12,15 +12,11 @@ Semantics:
 - FAILURE: when too few views are left to reach ``extra_views``, or the votes' mean lies beyond
   ``confirm_radius_m``, or the names disagree. After every failure, an aligned memory node next to the
   robot and inside the camera's view has its exploration potential scaled by ``reject_potential_factor``.
-  When the failure is only that the votes' mean lies beyond ``confirm_radius_m`` by at most
-  ``closer_look_slack_m``, it also writes a ``closer_look`` there (CloserStandpoint takes it: the robot
-  walks up to the voted point and the next step confirms from closer by).
 - Halted: the pending perception request is cancelled; the next start begins a new confirmation (the
   names heard are kept over the mission).
 
 Reads ``arbitration``, ``scene_evidence``, ``observation``, ``instruction``, ``target_label``,
-``found_objects`` and ``memory``; writes ``found_objects``, ``memory`` (node potentials) and
-``closer_look``.
+``found_objects`` and ``memory``; writes ``found_objects`` and ``memory`` (node potentials).
 
 Voting: a view *votes* for the target when one of its arbitration candidates is an object whose
 label names the instructed object (relevance >= ``align_threshold``), whose raw posterior score S(t)
@@ -65,7 +61,7 @@ from behaviours.spec import param
 from semexp_bt.core.evidence import ArbitrationResult, arbitrate, candidate_box
 from semexp_bt.core.geometry import locate_in_view
 from semexp_bt.core.relevance import NAMES_OBJECT_RELEVANCE
-from semexp_bt.core.types import CloserLook, Observation, SceneEvidence
+from semexp_bt.core.types import Observation, SceneEvidence
 from semexp_bt.perception.interface import PerceptionJob
 from semexp_bt.perception.validation import screen_result
 
@@ -91,7 +87,7 @@ class ConfirmTarget(SemExpBehaviour):
         "found_objects",
         "memory",
     )
-    WRITES = ("found_objects", "memory", "closer_look")
+    WRITES = ("found_objects", "memory")
 
     confirm_radius_m: float = param(
         "float",
@@ -157,14 +153,6 @@ class ConfirmTarget(SemExpBehaviour):
         doc="names recorded this close to the target's point count toward the agreement, m",
         default=0.5,
         gt=0.0,
-    )
-    closer_look_slack_m: float = param(
-        "float",
-        doc="votes whose mean lies at most this much beyond confirm_radius_m ask for a closer look "
-        "(``closer_look``) instead of only failing, m (0: never; the road's bus shelter, voted from "
-        "1.07-1.2 m, is the case)",
-        default=0.6,
-        ge=0.0,
     )
     reject_radius_m: float = param(
         "float",
@@ -336,14 +324,7 @@ class ConfirmTarget(SemExpBehaviour):
         point = np.mean(self._vote_points, axis=0)
         reach = math.hypot(point[0] - pose.x_m, point[1] - pose.y_m)
         if reach > self.confirm_radius_m:
-            closer = reach <= self.confirm_radius_m + self.closer_look_slack_m
-            if closer:
-                position = (float(point[0]), float(point[1]), float(point[2]))
-                self.write("closer_look", CloserLook(label=str(label), position_m=position, distance_m=reach))
-            return self._reject(
-                f"{label!r} has the votes, but its mean position is {reach:.2f} m away"
-                + ("; a closer look asked" if closer else "")
-            )
+            return self._reject(f"{label!r} has the votes, but its mean position is {reach:.2f} m away")
         agreeing, heard = self._label_agreement(point)
         if heard and agreeing < self.min_label_agreement * heard:
             return self._reject(

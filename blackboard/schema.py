@@ -32,16 +32,7 @@ import numpy as np
 import py_trees
 
 from semexp_bt.core.memory import TopologicalMemory
-from semexp_bt.core.types import (
-    CloserLook,
-    Detection,
-    Observation,
-    Pose2D,
-    SafetyState,
-    SceneEvidence,
-    Subgoal,
-    Twist,
-)
+from semexp_bt.core.types import Detection, Observation, Pose2D, SafetyState, SceneEvidence, Subgoal, Twist
 from semexp_bt.nav.costmap import Costmap
 from semexp_bt.nav.global_planner import GlobalPlan
 
@@ -103,12 +94,6 @@ SCHEMA: dict[str, KeySpec] = {
             "back (superseded: the instructed object came into view), or None",
         ),
         KeySpec("subgoal", (Subgoal, _NONE), "the subgoal being executed"),
-        KeySpec(
-            "closer_look",
-            (CloserLook, _NONE),
-            "a confirmation that had the votes from just beyond the success radius: where to look again "
-            "from closer by (ConfirmTarget writes it, CloserStandpoint takes it), or None",
-        ),
         KeySpec("decision", (object,), "the last DecisionResult or None"),
         KeySpec("cmd_twist", (Twist,), "the base velocity command the gait executes"),
         KeySpec(

@@ -666,7 +666,6 @@ def product_behaviours() -> list[NodeSpec]:
     from behaviours.back_up import BackUp
     from behaviours.clear_costmap import ClearCostmapAroundRobot
     from behaviours.clearance_guard import ClearanceGuard
-    from behaviours.closer_standpoint import CloserStandpoint
     from behaviours.compute_path import ComputePathToSubgoal
     from behaviours.confirm_target import ConfirmTarget
     from behaviours.decide import Decide
@@ -699,7 +698,6 @@ def product_behaviours() -> list[NodeSpec]:
         behaviour_spec(Perceive),
         behaviour_spec(Arbitrate),
         behaviour_spec(UpdateMemory),
-        behaviour_spec(CloserStandpoint),
         behaviour_spec(Decide),
         behaviour_spec(UpdateCostmap),
         behaviour_spec(ComputePathToSubgoal),

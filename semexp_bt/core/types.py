@@ -256,21 +256,6 @@ class Subgoal:
 
 
 @dataclass(frozen=True)
-class CloserLook:
-    """A confirmation that had its votes from a little too far away: where to look again from closer by.
-
-    Attributes:
-        label: the label the votes named.
-        position_m: ``(3,)`` the mean of the voting positions, in ``map``.
-        distance_m: how far that mean lay from the robot.
-    """
-
-    label: str
-    position_m: tuple[float, float, float]
-    distance_m: float
-
-
-@dataclass(frozen=True)
 class JointState:
     """Joint positions (rad) and velocities (rad/s) in the Go1 actuator order FR, FL, RR, RL x (hip, thigh, calf)."""
 
