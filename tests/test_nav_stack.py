@@ -350,9 +350,8 @@ def test_a_turn_that_flipped_may_not_flip_back_until_the_base_has_turned_or_move
             DwbController(),
             DwbController(DwbConfig(oscillation_reset_dist_m=0.0, oscillation_reset_angle_rad=0.0)),
         ),
-        (RegulatedPurePursuit(), None),
     ],
-    ids=["dwb", "rpp"],
+    ids=["dwb"],
 )
 def test_the_controller_keeps_turning_the_way_it_flipped_to_when_the_path_swings_back(
     guarded, unguarded

@@ -144,7 +144,6 @@ class DwbController:
         self._last = Twist.zero()
         self._progress = 0
         self._path_id: int | None = None
-        #: Public so that a controller that hands cycles to this one (RPP) shares its guard.
         self.oscillation = OscillationGuard(
             self.config.oscillation_reset_dist_m, self.config.oscillation_reset_angle_rad
         )

@@ -16,9 +16,9 @@ Where Nav2's controller stops (every pursuit motion refused, typically a turn in
 a corner of the long Go1 body into a wall), this one hands the cycle to the DWB sampler
 (:class:`~semexp_bt.nav.dwb.DwbController`), which searches every admissible arc, backward ones onto
 known free cells included: a three-point turn out of a tight spot instead of a stop. ``blocked`` only
-when that search finds nothing either. Pursuit and search share one oscillation guard (the sampler's
-:class:`~semexp_bt.nav.dwb.OscillationGuard`): a pursuit turn refused, the search turning the other way,
-then pursuit turning back is the dither the guard exists to stop.
+when that search finds nothing either. The search keeps its own oscillation guard
+(:class:`~semexp_bt.nav.dwb.OscillationGuard`); pursuit's commands do not go through it (sharing it
+was measured and not kept: docs/planner.md, fifth round).
 
 """
 
@@ -152,11 +152,9 @@ class RegulatedPurePursuit:
             pose, velocity, targets, limits=cfg.limits, horizon_s=cfg.collision_horizon_s, dt_s=cfg.dt_s
         )
         ok, least = admissible(costmap, pose, states, commands, rules=cfg.rules)
-        ok = np.logical_and(ok, ~self._fallback.oscillation.forbidden(pose, targets))
         for k in range(len(options)):
             if ok[k]:
                 v, w = regulate(float(targets[k, 0]), float(targets[k, 1]), float(least[k]), rules=cfg.rules)
-                self._fallback.oscillation.commanded(pose, Twist(linear_x_mps=v, angular_z_radps=w))
                 return ControlResult(Twist(linear_x_mps=v, angular_z_radps=w), status, float(least[k]), states[k],
                                      {"option": float(k)}, (len(options), int(ok.sum())))  # fmt: skip
         return ControlResult(Twist.zero(), "blocked", candidates=(len(options), 0))
