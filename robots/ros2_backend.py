@@ -225,7 +225,9 @@ class Ros2Robot(Robot):
         self._use_sim_time = self.profile.use_sim_time or simulation
         self._spec = load_go1_spec()
         self._twist_msg_type = TwistMsg
-        self._step_msg_type = TwistStamped
+        # Built once and refilled per step (publish copies it): building a TwistStamped costs as much as
+        # filling it.
+        self._step_msg = TwistStamped()
         self._string_msg_type = String
 
         self._lock = threading.Condition()
@@ -587,7 +589,7 @@ class Ros2Robot(Robot):
             self._wait_for_time(target)
 
     def _step_to(self, target_ns: int, command: Twist) -> None:
-        msg = self._step_msg_type()
+        msg = self._step_msg
         fill_stamp(msg.header.stamp, target_ns * 1e-9)
         fill_twist(msg.twist, command)
         self._step_pub.publish(msg)
@@ -898,6 +900,8 @@ class Ros2Robot(Robot):
         for _ in range(CLOSING_ZERO_COMMANDS):
             self._publish_twist(Twist.zero())
         self._closed = True
+        if self._pump is not None:
+            self._pump.close()
         self._executor.shutdown(timeout_sec=1.0)
         self._spinner.join(timeout=2.0)
         if not self._spinner.is_alive():  # a node still in the executor's hands would block destroy_node

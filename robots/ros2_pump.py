@@ -92,5 +92,11 @@ class SubscriptionPump:
                 ran += 1
         return ran
 
+    def close(self) -> None:
+        """Release the wait set (before the node and the context go; idempotent)."""
+        if self._wait_set is not None:
+            self._wait_set.destroy_when_not_in_use()
+            self._wait_set = None
+
 
 __all__ = ["CallerTakes", "SubscriptionPump"]

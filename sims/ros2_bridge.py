@@ -554,6 +554,7 @@ class SimBridge:
     def close(self) -> None:
         """Release the renderer and the ROS context (idempotent)."""
         self.robot.close()
+        self._pump.close()
         self._executor.shutdown(timeout_sec=1.0)
         self.node.destroy_node()
         self._context.try_shutdown()

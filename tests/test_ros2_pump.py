@@ -69,6 +69,7 @@ def test_pumped_messages_run_on_the_pumping_thread_and_never_on_the_executor() -
         me = threading.current_thread().name
         assert pumped == [(1.0, me), (2.0, me), (3.0, me)]
         assert [thread for _, thread in spun] == ["spinner"] * 3
+        pump.close()
     finally:
         executor.shutdown(timeout_sec=1.0)
         node.destroy_node()
