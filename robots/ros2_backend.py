@@ -29,10 +29,15 @@ How it runs:
 Simulation (``simulation=True``, the bridge ``sims/ros2_bridge.py``): the backend also reads
 ``/sim/scene`` (the catalogue for the perception emulator and the bridge's mode) and the segmentation on
 ``/sim/camera/segmentation``. In ``lockstep`` mode ``advance(dt)`` sends ``/sim/step`` with the command
-and waits for the odometry and clock of the new time; ``observe``/``observe_depth`` ask for a render of
-the current instant on ``/sim/camera/request`` and wait for it, as the in-process backend renders inside
-the tick. The deadlines then bound each wait instead of a periodic check (the world is paused between
-steps, so silence between them is not a fault).
+and waits for the bridge's reply, ``/sim/state`` (the new time's odometry and float clock in one message);
+``observe``/``observe_depth`` ask for a render of the current instant on ``/sim/camera/request`` and wait
+for it, as the in-process backend renders inside the tick. The deadlines then bound each wait instead of a
+periodic check (the world is paused between steps, so silence between them is not a fault). In lockstep
+the tick thread takes the replies itself: the state, IMU, joint and camera subscriptions belong to a
+:class:`robots.ros2_pump.SubscriptionPump` that the executor leaves alone, and each wait pumps them, so a
+reply costs one wake-up instead of the executor thread's and then the tick thread's (the executor thread
+keeps the scene, the heartbeat and the command timer). Which is which is known only once ``/sim/scene``
+has said the mode, so in simulation the sensor subscriptions are made then.
 """
 
 from __future__ import annotations
@@ -63,6 +68,7 @@ from robots.ros2_messages import (
     odometry_to_transform,
     odometry_to_twist,
     pose2d_of,
+    pose_to_transform,
     stamp_to_ns,
 )
 from robots.ros2_profile import SENSOR_STREAMS, Ros2Profile, TopicQos, load_ros2_profile
@@ -72,11 +78,13 @@ from robots.ros2_sim_protocol import (
     OUTCOME_TOPIC,
     SCENE_TOPIC,
     SEGMENTATION_TOPIC,
+    STATE_TOPIC,
     STEP_TOPIC,
     TIME_TOPIC,
     CameraRequest,
     SimulationInfo,
     decode_simulation_info,
+    decode_state,
     encode_camera_request,
 )
 from semexp_bt.core.types import (
@@ -106,6 +114,9 @@ CLOSING_ZERO_COMMANDS = 3
 #: answered later than odometry's 0.5 s once (CI), which is a slow simulation, not a lost robot. 1 s keeps
 #: a dead bridge's halt within the 2 s the executive has to exit.
 LOCKSTEP_REPLY_MIN_S = 1.0
+#: Longest single wait (s) inside a wait for the robot: between two, the waiting thread looks for a halt and
+#: (lockstep) at the bridge's silence.
+WAIT_SLICE_S = 0.05
 
 
 class Ros2Error(RuntimeError):
@@ -207,14 +218,16 @@ class Ros2Robot(Robot):
         from rosgraph_msgs.msg import Clock as ClockMsg
         from sensor_msgs.msg import CameraInfo, Image, Imu
         from sensor_msgs.msg import JointState as JointStateMsg
-        from std_msgs.msg import Float64, Header, String
+        from std_msgs.msg import Float64, Float64MultiArray, Header, String
 
         self.profile = profile or load_ros2_profile()
         self.simulation = simulation
         self._use_sim_time = self.profile.use_sim_time or simulation
         self._spec = load_go1_spec()
         self._twist_msg_type = TwistMsg
-        self._step_msg_type = TwistStamped
+        # Built once and refilled per step (publish copies it): building a TwistStamped costs as much as
+        # filling it.
+        self._step_msg = TwistStamped()
         self._string_msg_type = String
 
         self._lock = threading.Condition()
@@ -245,25 +258,30 @@ class Ros2Robot(Robot):
         self.node = rclpy.create_node(node_name, context=self._context, start_parameter_services=False)
         topics, qos = self.profile.topics, self.profile.qos
         self._cmd_pub = self.node.create_publisher(TwistMsg, topics.cmd_vel, qos_profile(qos.cmd_vel))
+        self._msg_types = {
+            "odom": Odometry,
+            "imu": Imu,
+            "joint_states": JointStateMsg,
+            "color_info": CameraInfo,
+            "color_image": Image,
+            "depth_image": Image,
+            "sim_time": Float64,
+            "state": Float64MultiArray,
+        }
+        # Lockstep: the tick thread takes the bridge's replies itself (robots/ros2_pump.py).
+        self._pump: Any = None
         subscribe = self.node.create_subscription
-        subscribe(Odometry, topics.odom, self._on_odom, qos_profile(qos.odom))
-        subscribe(Imu, topics.imu, self._store("imu"), qos_profile(qos.imu))
-        subscribe(
-            JointStateMsg, topics.joint_states, self._store("joint_states"), qos_profile(qos.joint_states)
-        )
-        subscribe(CameraInfo, topics.color_info, self._store("color_info"), qos_profile(qos.color_info))
-        subscribe(Image, topics.color_image, self._store_frame("color_image"), qos_profile(qos.color_image))
-        subscribe(Image, topics.depth_image, self._store_frame("depth_image"), qos_profile(qos.depth_image))
-        if self._use_sim_time and not simulation:  # the bridge's float clock (/sim/time) serves then
-            subscribe(ClockMsg, topics.clock, self._on_clock, qos_profile(qos.clock))
+        if not simulation:
+            self._subscribe_sensors(subscribe, lockstep=False)
+            if self._use_sim_time:
+                subscribe(ClockMsg, topics.clock, self._on_clock, qos_profile(qos.clock))
         self._step_pub: Any = None
         self._request_pub: Any = None
         self._outcome_pub: Any = None
         if simulation:
+            # The sensor subscriptions follow the bridge's mode (_on_scene): which thread takes them.
             subscribe(String, SCENE_TOPIC, self._on_scene, qos_profile(SIM_LATCHED_QOS))
-            subscribe(Image, SEGMENTATION_TOPIC, self._store_frame("segmentation"), qos_profile(SIM_QOS))
             subscribe(Header, HEARTBEAT_TOPIC, self._on_heartbeat, qos_profile(SIM_QOS))
-            subscribe(Float64, TIME_TOPIC, self._on_sim_time, qos_profile(SIM_QOS))
             self._step_pub = self.node.create_publisher(TwistStamped, STEP_TOPIC, qos_profile(SIM_QOS))
             self._request_pub = self.node.create_publisher(String, CAMERA_REQUEST_TOPIC, qos_profile(SIM_QOS))
             self._outcome_pub = self.node.create_publisher(
@@ -276,6 +294,45 @@ class Ros2Robot(Robot):
         self._executor.add_node(self.node)
         self._spinner = threading.Thread(target=self._spin, name="ros2-robot-spin", daemon=True)
         self._spinner.start()
+
+    def _subscribe_sensors(self, subscribe: Callable[..., Any], *, lockstep: bool) -> None:
+        """The profile's sensor streams (and the bridge's segmentation and clock in simulation).
+
+        ``subscribe``: the node's (the executor thread runs the callbacks) or, in lockstep, the pump's
+        (the tick thread does, in its waits). In lockstep ``/sim/state`` carries odometry and the float
+        clock of each step in one message, instead of ``/odom`` and ``/sim/time``.
+        """
+        topics, qos, types = self.profile.topics, self.profile.qos, self._msg_types
+        if lockstep:
+            subscribe(types["state"], STATE_TOPIC, self._on_state, qos_profile(SIM_QOS))
+        else:
+            subscribe(types["odom"], topics.odom, self._on_odom, qos_profile(qos.odom))
+        subscribe(types["imu"], topics.imu, self._store("imu"), qos_profile(qos.imu))
+        subscribe(
+            types["joint_states"],
+            topics.joint_states,
+            self._store("joint_states"),
+            qos_profile(qos.joint_states),
+        )
+        subscribe(
+            types["color_info"], topics.color_info, self._store("color_info"), qos_profile(qos.color_info)
+        )
+        for stream in ("color_image", "depth_image"):
+            subscribe(
+                types[stream],
+                getattr(topics, stream),
+                self._store_frame(stream),
+                qos_profile(getattr(qos, stream)),
+            )
+        if self.simulation:
+            subscribe(
+                types["color_image"],
+                SEGMENTATION_TOPIC,
+                self._store_frame("segmentation"),
+                qos_profile(SIM_QOS),
+            )
+            if not lockstep:
+                subscribe(types["sim_time"], TIME_TOPIC, self._on_sim_time, qos_profile(SIM_QOS))
 
     # ------------------------------------------------------------------ executor thread
 
@@ -373,6 +430,20 @@ class Ros2Robot(Robot):
             self._record("odom", stamp, msg)
             self._lock.notify_all()
 
+    def _on_state(self, msg: Any) -> None:
+        """Lockstep: a step's reply (``/sim/state``), converted as ``/odom`` and ``/sim/time`` would be."""
+        try:
+            state = decode_state(msg.data)
+            transform = pose_to_transform(state.position_m, state.orientation_xyzw)
+        except InvalidInputError as error:  # MessageError and SimProtocolError
+            self._halt_now(STATE_TOPIC, f"malformed state ({error})")
+            return
+        with self._lock:
+            self._odom.append((state.stamp_ns, transform, state.twist))
+            self._sim_time_s = state.sim_time_s
+            self._record("odom", state.stamp_ns, msg)
+            self._lock.notify_all()
+
     def _on_clock(self, msg: Any) -> None:
         with self._lock:
             self._clock_ns = stamp_to_ns(msg.clock)
@@ -397,10 +468,19 @@ class Ros2Robot(Robot):
         except InvalidInputError as error:
             self._halt_now(SCENE_TOPIC, str(error))
             return
+        lockstep = info.mode == "lockstep"
+        if self._simulation_info is None:  # latched: once per subscription, but never subscribe twice
+            if lockstep:
+                from robots.ros2_pump import SubscriptionPump
+
+                self._pump = SubscriptionPump(self.node)
+                self._subscribe_sensors(self._pump.subscribe, lockstep=True)
+            else:
+                self._subscribe_sensors(self.node.create_subscription, lockstep=False)
         with self._lock:
             self._simulation_info = info
             self._lock.notify_all()
-        if info.mode == "lockstep":  # deadlines bound the waits instead; one entity less per wake-up
+        if lockstep:  # deadlines bound the waits instead; one entity less per wake-up
             self._watchdog_timer.cancel()
 
     # ------------------------------------------------------------------ readiness
@@ -421,12 +501,16 @@ class Ros2Robot(Robot):
             return ("odom", "imu", "joint_states")
         return SENSOR_STREAMS
 
+    def _topic_of(self, stream: str) -> str:
+        """The topic a stream arrives on (in lockstep, odometry comes on ``/sim/state``)."""
+        return STATE_TOPIC if stream == "odom" and self.lockstep else self.profile.topic_of(stream)
+
     def _missing(self) -> list[str]:
         missing = [] if not self.simulation or self._simulation_info is not None else [SCENE_TOPIC]
         if self.simulation and self._simulation_info is None:
             return missing  # which streams to expect depends on the bridge's mode
-        missing += [self.profile.topic_of(s) for s in self._watched_streams() if s not in self._latest]
-        if self.simulation and self._sim_time_s is None:
+        missing += [self._topic_of(s) for s in self._watched_streams() if s not in self._latest]
+        if self.simulation and self._sim_time_s is None and not self.lockstep:  # else /sim/state's
             missing.append(TIME_TOPIC)
         elif self._use_sim_time and not self.simulation and self._clock_ns is None:
             missing.append(self.profile.topics.clock)
@@ -441,7 +525,7 @@ class Ros2Robot(Robot):
         """
         timeout = self.profile.deadlines_s.startup_s if timeout_s is None else timeout_s
         with self._lock:
-            self._lock.wait_for(lambda: not self._missing() or self._halt is not None, timeout=timeout)
+            self._wait_locked(lambda: not self._missing() or self._halt is not None, timeout)
             self._raise_if_halted()
             missing = self._missing()
             if missing:
@@ -505,7 +589,7 @@ class Ros2Robot(Robot):
             self._wait_for_time(target)
 
     def _step_to(self, target_ns: int, command: Twist) -> None:
-        msg = self._step_msg_type()
+        msg = self._step_msg
         fill_stamp(msg.header.stamp, target_ns * 1e-9)
         fill_twist(msg.twist, command)
         self._step_pub.publish(msg)
@@ -518,10 +602,8 @@ class Ros2Robot(Robot):
                 deadline,
             )
             if not arrived:
-                stepped = bool(self._odom) and self._odom[-1][0] >= target_ns
-                topic = TIME_TOPIC if stepped else self.profile.topics.odom
                 self._halt_locked(
-                    topic, f"the simulation bridge fell silent for {deadline:.2f} s during a step"
+                    STATE_TOPIC, f"the simulation bridge fell silent for {deadline:.2f} s during a step"
                 )
             self._target_ns = target_ns
 
@@ -533,13 +615,34 @@ class Ros2Robot(Robot):
         """
         while True:
             silent_s = time.monotonic() - self._bridge_heard_s
-            if self._lock.wait_for(
-                lambda: self._halt is not None or done(), timeout=max(deadline_s - silent_s, 0.0)
-            ):
+            if self._wait_locked(lambda: self._halt is not None or done(), max(deadline_s - silent_s, 0.0)):
                 self._raise_if_halted()
                 return True
             if time.monotonic() - self._bridge_heard_s >= deadline_s:
                 return False
+
+    def _wait_locked(self, done: Callable[[], bool], timeout_s: float) -> bool:
+        """Wait (lock held) until ``done()``, at most ``timeout_s``; whether it came true.
+
+        Before the bridge's mode is known, and live, the executor thread's callbacks notify the lock. In
+        lockstep the waiting thread takes the bridge's replies itself (the pump runs their callbacks here),
+        with the lock released meanwhile so that the executor thread's callbacks (the heartbeat) go on.
+        """
+        deadline = time.monotonic() + timeout_s
+        while not done():
+            left = deadline - time.monotonic()
+            if left <= 0.0:
+                return False
+            pump = self._pump
+            if pump is None:
+                self._lock.wait(timeout=min(left, WAIT_SLICE_S))
+                continue
+            self._lock.release()
+            try:
+                pump.pump(min(left, WAIT_SLICE_S))
+            finally:
+                self._lock.acquire()
+        return True
 
     def _halt_locked(self, topic: str, reason: str) -> NoReturn:
         """:meth:`_halt_now` from a thread that holds the lock; raises."""
@@ -797,6 +900,8 @@ class Ros2Robot(Robot):
         for _ in range(CLOSING_ZERO_COMMANDS):
             self._publish_twist(Twist.zero())
         self._closed = True
+        if self._pump is not None:
+            self._pump.close()
         self._executor.shutdown(timeout_sec=1.0)
         self._spinner.join(timeout=2.0)
         if not self._spinner.is_alive():  # a node still in the executor's hands would block destroy_node

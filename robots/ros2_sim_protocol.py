@@ -11,6 +11,7 @@ simulation has travels here, never on those:
 | ``/sim/camera/segmentation`` | sensor_msgs/Image 16UC1 (id + 1) | bridge -> executive | the segmentation of each full frame, stamped as the colour frame |
 | ``/sim/outcome`` | std_msgs/String (JSON), transient local | executive -> bridge | the mission's declared outcome and confirmed targets, for the bridge's scoring |
 | ``/sim/time`` | std_msgs/Float64 | bridge -> executive | the simulator's clock in float seconds (``/clock`` is its nanosecond rounding); the lockstep executive's clock, so that its time comparisons are the in-process run's to the bit |
+| ``/sim/state`` | std_msgs/Float64MultiArray (:data:`STATE_FIELDS`) | bridge -> executive | lockstep: after each step, the one reply: the step's stamp, the float clock and the odometry (the values ``/odom`` and ``/sim/time`` carry), so that a step costs one message and one wake-up |
 | ``/sim/heartbeat`` | std_msgs/Header | bridge -> executive | every 0.1 s from a thread of its own: the bridge is alive, if busy (a lockstep wait halts only after the deadline passes without it) |
 
 The bridge keeps the ground truth (where things are, which object is reached, collisions) to itself and
@@ -22,12 +23,13 @@ This module is plain data (no rclpy): the names and the JSON payloads, encoded a
 from __future__ import annotations
 
 import json
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any, Literal
 
 from semexp_bt.core.scene import SceneObject, SceneSpec
-from semexp_bt.core.types import InvalidInputError, PixelGrid
+from semexp_bt.core.types import InvalidInputError, PixelGrid, Twist
 
 SCENE_TOPIC = "/sim/scene"
 STEP_TOPIC = "/sim/step"
@@ -36,6 +38,7 @@ SEGMENTATION_TOPIC = "/sim/camera/segmentation"
 OUTCOME_TOPIC = "/sim/outcome"
 HEARTBEAT_TOPIC = "/sim/heartbeat"
 TIME_TOPIC = "/sim/time"
+STATE_TOPIC = "/sim/state"
 #: The bridge's heartbeat period (s, wall clock).
 HEARTBEAT_PERIOD_S = 0.1
 
@@ -173,6 +176,78 @@ def decode_simulation_info(text: str) -> SimulationInfo:
     )
 
 
+#: The ``/sim/state`` payload's values, in order (float64 each; the stamp is exact below 2**53 ns, 104 days).
+STATE_FIELDS: tuple[str, ...] = (
+    "stamp_ns",
+    "sim_time_s",
+    "position_x_m",
+    "position_y_m",
+    "position_z_m",
+    "orientation_x",
+    "orientation_y",
+    "orientation_z",
+    "orientation_w",
+    "linear_x_mps",
+    "linear_y_mps",
+    "angular_z_radps",
+)
+#: The largest stamp (ns) a float64 holds exactly.
+_EXACT_NS = 2**53
+
+
+@dataclass(frozen=True)
+class SimState:
+    """A lockstep step's reply (``/sim/state``): what ``/odom`` and ``/sim/time`` carry, in one message.
+
+    Attributes:
+        stamp_ns: the instant (ns), as ``/odom``'s header stamp.
+        sim_time_s: the simulator's float clock (``/sim/time``).
+        position_m: the base's position in ``odom`` (x, y, z).
+        orientation_xyzw: its orientation (a quaternion x, y, z, w, as the simulator has it).
+        twist: its body twist.
+    """
+
+    stamp_ns: int
+    sim_time_s: float
+    position_m: tuple[float, float, float]
+    orientation_xyzw: tuple[float, float, float, float]
+    twist: Twist
+
+
+def encode_state(state: SimState) -> list[float]:
+    """The ``/sim/state`` values (:data:`STATE_FIELDS`), float64 each: the receiver gets these bits."""
+    if not 0 <= state.stamp_ns < _EXACT_NS:
+        raise SimProtocolError(f"{STATE_TOPIC}: stamp {state.stamp_ns} ns is not exact in a float64")
+    twist = state.twist
+    return [
+        float(state.stamp_ns),
+        float(state.sim_time_s),
+        *(float(v) for v in state.position_m),
+        *(float(v) for v in state.orientation_xyzw),
+        float(twist.linear_x_mps),
+        float(twist.linear_y_mps),
+        float(twist.angular_z_radps),
+    ]
+
+
+def decode_state(values: Sequence[float]) -> SimState:
+    """Parse ``/sim/state`` values; wrong length or a non-finite value raises (names the field)."""
+    if len(values) != len(STATE_FIELDS):
+        raise SimProtocolError(f"{STATE_TOPIC}: expected {len(STATE_FIELDS)} values, got {len(values)}")
+    floats = [float(v) for v in values]
+    for name, value in zip(STATE_FIELDS, floats, strict=True):
+        if not math.isfinite(value):
+            raise SimProtocolError(f"{STATE_TOPIC}: field '{name}' must be finite, got {value}")
+    stamp, sim_time, px, py, pz, qx, qy, qz, qw, vx, vy, wz = floats
+    return SimState(
+        stamp_ns=int(stamp),
+        sim_time_s=sim_time,
+        position_m=(px, py, pz),
+        orientation_xyzw=(qx, qy, qz, qw),
+        twist=Twist(vx, vy, wz),
+    )
+
+
 @dataclass(frozen=True)
 class CameraRequest:
     """A lockstep render request: ``full`` (colour, depth, segmentation) or ``depth`` at ``grids`` only."""
@@ -228,15 +303,20 @@ __all__ = [
     "OUTCOME_TOPIC",
     "SCENE_TOPIC",
     "SEGMENTATION_TOPIC",
+    "STATE_FIELDS",
+    "STATE_TOPIC",
     "STEP_TOPIC",
     "TIME_TOPIC",
     "CameraRequest",
     "SimProtocolError",
+    "SimState",
     "SimulationInfo",
     "decode_camera_request",
     "decode_outcome",
     "decode_simulation_info",
+    "decode_state",
     "encode_camera_request",
     "encode_outcome",
     "encode_simulation_info",
+    "encode_state",
 ]

@@ -15,6 +15,10 @@ Run it in the ROS 2 environment, on loopback only::
 2. Camera pair latency: the bridge in realtime mode for ``--latency-s`` seconds at 15 Hz; this process
    listens with the ROS 2 backend; latency = the instant a colour + depth pair is complete here minus the
    instant the bridge finished rendering it (``time.monotonic`` is one clock for every process).
+
+For iteration: ``--budget-s 60`` runs both backends on a copy of the mission with its budget cut (the
+end-to-end tests' way; a full 600 s pair takes minutes), ``--startup-repeats 0`` and ``--latency-s 0`` skip
+parts 0 and 2.
 """
 
 from __future__ import annotations
@@ -32,20 +36,24 @@ from typing import Any
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-MISSION = ROOT / "trees" / "object_search.yaml"
+# This checkout's packages (the pair-latency probe imports the backend here; the episodes' subprocesses run
+# in ROOT), not whichever checkout the environment's editable install points at.
+sys.path.insert(0, str(ROOT))
+
+from tests.ros2_support import MISSION, mission_with_budget  # noqa: E402
 
 
 def _cli(*args: str) -> list[str]:
     return [sys.executable, "-m", "semexp_bt", *args]
 
 
-def in_process(scene: str, seed: int, out: Path) -> dict[str, Any]:
+def in_process(mission: Path, scene: str, seed: int, out: Path) -> dict[str, Any]:
     """One in-process episode (``semexp-bt run``) and its setup cost measured alone."""
     record_path = out / f"inprocess_{scene}_{seed}.json"
     subprocess.run(
         _cli(
             "run",
-            str(MISSION),
+            str(mission),
             "--scene",
             scene,
             "--seed",
@@ -100,7 +108,7 @@ print(time.perf_counter() - t1)
 """
 
 
-def over_ros2(scene: str, seed: int, out: Path) -> dict[str, Any]:
+def over_ros2(mission: Path, scene: str, seed: int, out: Path) -> dict[str, Any]:
     """The same episode over ROS 2 in lockstep: bridge and executive as two processes."""
     bridge_json, exec_json = out / f"bridge_{scene}_{seed}.json", out / f"executive_{scene}_{seed}.json"
     bridge = subprocess.Popen(
@@ -122,7 +130,7 @@ def over_ros2(scene: str, seed: int, out: Path) -> dict[str, Any]:
         subprocess.run(
             _cli(
                 "run",
-                str(MISSION),
+                str(mission),
                 "--backend",
                 "ros2",
                 "--seed",
@@ -238,27 +246,38 @@ def main() -> int:
     parser.add_argument("--scene", default="showroom")
     parser.add_argument("--seed", type=int, default=9)
     parser.add_argument("--repeats", type=int, default=2)
-    parser.add_argument("--latency-s", type=float, default=20.0)
-    parser.add_argument("--startup-repeats", type=int, default=10)
+    parser.add_argument("--latency-s", type=float, default=20.0, help="0: skip the pair latency")
+    parser.add_argument("--startup-repeats", type=int, default=10, help="0: skip the start-up cost")
+    parser.add_argument(
+        "--budget-s", type=float, default=None, help="cut the mission's budget (s) for a shorter pair of runs"
+    )
     parser.add_argument("--json", type=Path, default=None)
     args = parser.parse_args()
     os.environ.setdefault("MUJOCO_GL", "egl")
     os.chdir(ROOT)
-    startup = startup_cost(args.startup_repeats)
+    startup = startup_cost(args.startup_repeats) if args.startup_repeats > 0 else None
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp)
-        runs = []
+        mission = MISSION if args.budget_s is None else mission_with_budget(out / "mission", args.budget_s)
+        runs: list[dict[str, Any]] = []
         for _ in range(args.repeats):
             runs.append(
                 {
-                    "in_process": in_process(args.scene, args.seed, out),
-                    "ros2": over_ros2(args.scene, args.seed, out),
+                    "in_process": in_process(mission, args.scene, args.seed, out),
+                    "ros2": over_ros2(mission, args.scene, args.seed, out),
+                    "load_average": os.getloadavg(),
                 }
             )
-        latency = pair_latency(args.scene, args.seed, args.latency_s, out)
+        latency = pair_latency(args.scene, args.seed, args.latency_s, out) if args.latency_s > 0 else None
     ratios = [r["ros2"]["wall_per_sim_s"] / r["in_process"]["wall_per_sim_s"] for r in runs]
     report = {
-        "episode": {"scene": args.scene, "seed": args.seed, "fidelity": "kinematic", "relevance": "lexical"},
+        "episode": {
+            "scene": args.scene,
+            "seed": args.seed,
+            "fidelity": "kinematic",
+            "relevance": "lexical",
+            "budget_s": args.budget_s,
+        },
         "machine": {"cores": os.cpu_count(), "load_average_at_end": os.getloadavg()},
         "startup_ms": startup,
         "runs": runs,

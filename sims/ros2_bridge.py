@@ -17,6 +17,10 @@ Two modes:
   the executive asks on ``/sim/camera/request`` (a full frame for perception, depth at the planner's and
   the map's pixel grids otherwise), exactly as the in-process backend renders inside a tick. The mission
   therefore sees the same world at the same instants as in-process, whatever the load on the machine.
+  Each step's reply is one ``/sim/state`` message (odometry and the float clock); ``/odom``, ``/sim/time``
+  and ``/clock`` go out per step only while something subscribes to them (ROS tools; the lockstep
+  executive does not), IMU and joint states every PROPRIOCEPTION_EVERY steps as in realtime. The main
+  loop waits on its subscriptions itself (``robots/ros2_pump.py``), no executor: one wake-up per request.
 - ``realtime``: the world runs on the wall clock at the control rate like a robot, applies the latest
   ``/cmd_vel`` (zeroed 0.4 s after the last one), and publishes camera frames at ``camera_hz``. Rendering
   costs tens of milliseconds on a software rasteriser, so simulated time may run slower than the wall;
@@ -59,13 +63,16 @@ from robots.ros2_sim_protocol import (
     OUTCOME_TOPIC,
     SCENE_TOPIC,
     SEGMENTATION_TOPIC,
+    STATE_TOPIC,
     STEP_TOPIC,
     TIME_TOPIC,
     BridgeMode,
     CameraRequest,
+    SimState,
     decode_camera_request,
     decode_outcome,
     encode_simulation_info,
+    encode_state,
 )
 from semexp_bt.core.metrics import DEFAULT_CLEARANCE_M, DEFAULT_SUCCESS_RADIUS_M
 from semexp_bt.core.types import InvalidInputError, Observation, Twist
@@ -200,7 +207,7 @@ class SimBridge:
         from nav_msgs.msg import Odometry
         from rosgraph_msgs.msg import Clock
         from sensor_msgs.msg import CameraInfo, Image, Imu, JointState
-        from std_msgs.msg import Float64, Header, String
+        from std_msgs.msg import Float64, Float64MultiArray, Header, String
 
         self._types = {
             "odom": Odometry,
@@ -217,6 +224,9 @@ class SimBridge:
         self.node = rclpy.create_node(
             "semexp_sim_bridge", context=self._context, start_parameter_services=False
         )
+        from robots.ros2_pump import SubscriptionPump
+
+        self._pump = SubscriptionPump(self.node)
         topics, qos = self.profile.topics, self.profile.qos
         self._pubs: dict[str, Any] = {
             stream: self.node.create_publisher(
@@ -229,17 +239,21 @@ class SimBridge:
         )
         self._pubs["sim_time"] = self.node.create_publisher(Float64, TIME_TOPIC, qos_profile(SIM_QOS))
         self._types["sim_time"] = Float64
+        self._pubs["state"] = self.node.create_publisher(Float64MultiArray, STATE_TOPIC, qos_profile(SIM_QOS))
+        self._types["state"] = Float64MultiArray
         # The per-step messages are built once and refilled (publish copies them): building an Odometry
         # in Python costs more than a kinematic step.
-        self._reused = {name: self._types[name]() for name in ("odom", "sim_time", "clock")}
+        self._reused = {name: self._types[name]() for name in ("odom", "sim_time", "clock", "state")}
         scene_pub = self.node.create_publisher(String, SCENE_TOPIC, qos_profile(SIM_LATCHED_QOS))
-        self.node.create_subscription(TwistMsg, topics.cmd_vel, self._on_cmd_vel, qos_profile(qos.cmd_vel))
-        self.node.create_subscription(String, OUTCOME_TOPIC, self._on_outcome, qos_profile(SIM_LATCHED_QOS))
-        if self.options.mode == "lockstep":
-            self.node.create_subscription(TwistStamped, STEP_TOPIC, self._on_step, qos_profile(SIM_QOS))
-            self.node.create_subscription(
-                String, CAMERA_REQUEST_TOPIC, self._on_camera_request, qos_profile(SIM_QOS)
-            )
+        lockstep = self.options.mode == "lockstep"
+        # Lockstep: the main loop waits on the subscriptions itself and runs their callbacks (one wake-up
+        # per request; robots/ros2_pump.py); realtime: the executor, spun between steps.
+        subscribe = self._pump.subscribe if lockstep else self.node.create_subscription
+        subscribe(TwistMsg, topics.cmd_vel, self._on_cmd_vel, qos_profile(qos.cmd_vel))
+        subscribe(String, OUTCOME_TOPIC, self._on_outcome, qos_profile(SIM_LATCHED_QOS))
+        if lockstep:
+            subscribe(TwistStamped, STEP_TOPIC, self._on_step, qos_profile(SIM_QOS))
+            subscribe(String, CAMERA_REQUEST_TOPIC, self._on_camera_request, qos_profile(SIM_QOS))
         announcement = String()
         announcement.data = encode_simulation_info(
             self.scene, mode=self.options.mode, control_period_s=CONTROL_PERIOD_S, seed=self.options.seed
@@ -273,26 +287,37 @@ class SimBridge:
         if not self._silenced(stream):
             self._pubs[stream].publish(msg)
 
+    def _wanted(self, stream: str) -> bool:
+        """Whether to publish ``stream``'s per-step message: always in realtime; in lockstep, where
+        ``/sim/state`` carries the step's reply, only while something subscribes to it (ROS tools, a
+        test's listener; the lockstep executive does not)."""
+        return self.options.mode == "realtime" or self._pubs[stream].get_subscription_count() > 0
+
     def publish_state(self, *, heartbeat: bool = False) -> None:
         """Clock, odometry (and every PROPRIOCEPTION_EVERY steps, or on a heartbeat, IMU and joint states)
-        of the current instant, all stamped with it."""
-        stamp_s = self._now_ns() * 1e-9
+        of the current instant, all stamped with it; in lockstep ``/sim/state`` last, the reply the
+        executive waits for (the IMU and joints it reads then have gone out before it)."""
+        now_ns = self._now_ns()
+        stamp_s = now_ns * 1e-9
         frames = self.profile.frames
         robot = self.robot
         # The simulator's own pose values (float64 on the wire): the executive derives its pose and the
         # camera's from them exactly as the in-process backend does (MujocoRobot.base_odometry).
         position, orientation = robot.base_odometry()
-        odom = self._reused["odom"]
-        fill_odometry(
-            odom,
-            position,
-            orientation,
-            robot.base_twist(),
-            stamp_s=stamp_s,
-            odom_frame=frames.odom,
-            base_frame=frames.base,
-        )
-        self._publish("odom", odom)
+        twist = robot.base_twist()
+        sim_time_s = robot.now_s()
+        if self._wanted("odom"):
+            odom = self._reused["odom"]
+            fill_odometry(
+                odom,
+                position,
+                orientation,
+                twist,
+                stamp_s=stamp_s,
+                odom_frame=frames.odom,
+                base_frame=frames.base,
+            )
+            self._publish("odom", odom)
         if self._steps % PROPRIOCEPTION_EVERY == 0 or heartbeat:
             imu = self._types["imu"]()
             fill_imu(imu, robot.imu(), stamp_s=stamp_s, frame_id=frames.base)
@@ -300,12 +325,26 @@ class SimBridge:
             joints = self._types["joint_states"]()
             fill_joint_state(joints, self._joint_names, robot.joint_state(), stamp_s=stamp_s)
             self._publish("joint_states", joints)
-        sim_time = self._reused["sim_time"]
-        sim_time.data = robot.now_s()
-        self._publish("sim_time", sim_time)
-        clock = self._reused["clock"]
-        fill_stamp(clock.clock, stamp_s)
-        self._publish("clock", clock)
+        if self._wanted("sim_time"):
+            sim_time = self._reused["sim_time"]
+            sim_time.data = sim_time_s
+            self._publish("sim_time", sim_time)
+        if self._wanted("clock"):
+            clock = self._reused["clock"]
+            fill_stamp(clock.clock, stamp_s)
+            self._publish("clock", clock)
+        if self.options.mode == "lockstep" and not self._silenced("odom"):  # it carries the odometry
+            state = self._reused["state"]
+            state.data = encode_state(
+                SimState(
+                    stamp_ns=now_ns,
+                    sim_time_s=sim_time_s,
+                    position_m=position,
+                    orientation_xyzw=orientation,
+                    twist=twist,
+                )
+            )
+            self._pubs["state"].publish(state)
 
     def publish_frame(self, request: CameraRequest) -> None:
         """Render the camera now and publish camera info, depth and (full frames) colour and segmentation."""
@@ -449,7 +488,7 @@ class SimBridge:
 
     def _run_lockstep(self, wall_start: float) -> None:
         while not self._wall_exceeded(wall_start):
-            self._executor.spin_once(timeout_sec=HEARTBEAT_S / 5)
+            self._pump.pump(HEARTBEAT_S / 5)
             if time.monotonic() - self._last_step_wall_s > HEARTBEAT_S:
                 self.publish_state(heartbeat=True)
                 self._last_step_wall_s = time.monotonic()
@@ -515,6 +554,7 @@ class SimBridge:
     def close(self) -> None:
         """Release the renderer and the ROS context (idempotent)."""
         self.robot.close()
+        self._pump.close()
         self._executor.shutdown(timeout_sec=1.0)
         self.node.destroy_node()
         self._context.try_shutdown()

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import os
 import random
+import re
 import signal
 import subprocess
 import sys
@@ -59,6 +60,21 @@ def isolate_this_process(domain_id: int) -> None:
     is read per context, so a test may move to a fresh one.
     """
     os.environ.update({k: v for k, v in isolated_env(domain_id).items() if k not in ("PYTHONUNBUFFERED",)})
+
+
+def mission_with_budget(folder: Path, budget_s: float) -> Path:
+    """``trees/object_search.yaml`` with ``budget_s`` cut to ``budget_s``, written into ``folder`` (created)
+    beside a link to the shipped subtrees (its includes are relative to it). The end-to-end tests and
+    ``scripts/bench_ros2.py --budget-s`` run both backends on the same copy."""
+    text, count = re.subn(
+        r"^(\s*budget_s:\s*)\S+$", rf"\g<1>{budget_s:g}", MISSION.read_text(), count=1, flags=re.M
+    )
+    assert count == 1, f"{MISSION} has no budget_s line"
+    folder.mkdir(parents=True)
+    (folder / "subtrees").symlink_to(MISSION.parent / "subtrees", target_is_directory=True)
+    path = folder / MISSION.name
+    path.write_text(text)
+    return path
 
 
 def semexp(args: Sequence[str], *, env: Mapping[str, str], log: Path) -> subprocess.Popen[bytes]:

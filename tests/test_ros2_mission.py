@@ -30,7 +30,6 @@ from __future__ import annotations
 
 import json
 import math
-import re
 import signal
 import subprocess
 import sys
@@ -49,6 +48,7 @@ from tests.ros2_support import (
     fresh_domain_id,
     isolate_this_process,
     isolated_env,
+    mission_with_budget,
     semexp,
     stop,
     wait_for,
@@ -64,21 +64,6 @@ E2E_BUDGET_S = 40
 #: Compares two missions' per-tick records (statuses, feedback, blackboard writes) and names the first
 #: difference.
 COMPARE_RECORDS = ROOT / "scripts" / "compare_tick_records.py"
-
-
-def _short_mission(tmp_path: Path) -> Path:
-    """``trees/object_search.yaml`` with ``budget_s`` cut to :data:`E2E_BUDGET_S`, beside a link to the
-    shipped subtrees (its includes are relative to it)."""
-    text, count = re.subn(
-        r"^(\s*budget_s:\s*)\S+$", rf"\g<1>{E2E_BUDGET_S}", MISSION.read_text(), count=1, flags=re.M
-    )
-    assert count == 1, f"{MISSION} has no budget_s line"
-    folder = tmp_path / "mission"
-    folder.mkdir()
-    (folder / "subtrees").symlink_to(MISSION.parent / "subtrees", target_is_directory=True)
-    path = folder / MISSION.name
-    path.write_text(text)
-    return path
 
 
 def _run_in_process(tmp_path: Path, mission: Path, scene: str, seed: int) -> tuple[dict[str, Any], Path]:
@@ -170,7 +155,7 @@ def _decisions(record: dict[str, Any]) -> list[dict[str, Any]]:
 @pytest.mark.parametrize(("scene", "seed"), EPISODES)
 def test_the_mission_over_ros2_has_the_in_process_outcome(tmp_path: Path, scene: str, seed: int) -> None:
     started = time.monotonic()
-    mission = _short_mission(tmp_path)
+    mission = mission_with_budget(tmp_path / "mission", E2E_BUDGET_S)
     in_process, in_process_ticks = _run_in_process(tmp_path, mission, scene, seed)
     # The short budget still covers a decision and the navigation toward it (else the test tests little).
     assert in_process["decisions"] and in_process["path_length_m"] > 0.1, in_process["outcome"]

@@ -27,16 +27,20 @@ from robots.ros2_profile import (
     profile_from_dict,
 )
 from robots.ros2_sim_protocol import (
+    STATE_FIELDS,
     CameraRequest,
     SimProtocolError,
+    SimState,
     decode_camera_request,
     decode_outcome,
     decode_simulation_info,
+    decode_state,
     encode_camera_request,
     encode_outcome,
     encode_simulation_info,
+    encode_state,
 )
-from semexp_bt.core.types import PixelGrid, Pose2D
+from semexp_bt.core.types import PixelGrid, Pose2D, Twist
 from sims.catalogue import build_scene
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -165,6 +169,26 @@ def test_camera_requests_and_outcomes_round_trip_and_bad_payloads_are_named() ->
         decode_outcome('{"outcome": "success", "found_objects": [{"label": "x"}]}')
     with pytest.raises(SimProtocolError, match="/sim/scene: missing field 'scene'"):
         decode_simulation_info('{"mode": "lockstep", "control_period_s": 0.02, "seed": 1}')
+
+
+def test_a_step_state_round_trips_to_the_bit_and_bad_payloads_are_named() -> None:
+    # A float clock that is not the stamp's rounding, and pose values with every bit significant.
+    state = SimState(
+        stamp_ns=599_980_000_000,
+        sim_time_s=sum([0.02] * 29_999),
+        position_m=(1.0 / 3.0, -2.0 / 7.0, 0.27),
+        orientation_xyzw=(0.0, 0.0, math.sin(0.1), math.cos(0.1)),
+        twist=Twist(0.3, -1e-17, 0.7),
+    )
+    values = encode_state(state)
+    assert len(values) == len(STATE_FIELDS)
+    assert decode_state(values) == state
+    with pytest.raises(SimProtocolError, match="/sim/state: expected 12 values, got 11"):
+        decode_state(values[:-1])
+    with pytest.raises(SimProtocolError, match="/sim/state: field 'orientation_w' must be finite"):
+        decode_state([*values[:8], math.nan, *values[9:]])
+    with pytest.raises(SimProtocolError, match="not exact in a float64"):
+        encode_state(dataclasses.replace(state, stamp_ns=2**53))
 
 
 def test_the_default_path_never_imports_rclpy() -> None:
