@@ -74,6 +74,9 @@ class ListSink:
             self.waited_out = True
         self.frames.append(frame)
 
+    def flush(self) -> None:
+        return
+
     def close(self) -> None:
         return
 

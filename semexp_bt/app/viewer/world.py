@@ -23,12 +23,19 @@ What is logged where (the entity paths are named once, here, and read back by th
   for the winner and the runners-up (markdown).
 - ``command`` the commanded twist, ``robot/base_twist`` the measured one (time series); ``events`` the
   mission's events (text log).
+
+The streams that come at the pose rate (the pose, the trajectory, both twists, the controller's
+trajectory) are held as rows and sent as columns (``rr.send_columns``) when the worker calls
+:meth:`WorldLogger.flush` after each batch of frames: one native call per entity and batch instead of one
+per row. Every ``rr.log`` call releases and retakes the interpreter lock, and on two cores each retake
+waits for the tick thread; the rows are the same ones, at the same ticks, either way.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -94,6 +101,27 @@ TRAJECTORY_COLOUR = (90, 170, 255)
 CONTROL_COLOUR = (60, 230, 120)
 PATH_COLOUR = (255, 255, 255)
 EDGE_COLOUR = (150, 150, 150)
+
+
+@dataclass
+class _Rows:
+    """Rows of one entity held for one ``rr.send_columns`` call: their times and values."""
+
+    ticks: list[int] = field(default_factory=list)
+    stamps_s: list[float] = field(default_factory=list)
+    values: list[Any] = field(default_factory=list)
+
+    def add(self, tick: int, stamp_s: float, value: Any) -> None:
+        """Hold one row."""
+        self.ticks.append(tick)
+        self.stamps_s.append(stamp_s)
+        self.values.append(value)
+
+    def take(self) -> tuple[list[int], list[float], list[Any]]:
+        """The ticks, robot times and values held; the rows are emptied."""
+        taken = (self.ticks, self.stamps_s, self.values)
+        self.ticks, self.stamps_s, self.values = [], [], []
+        return taken
 
 
 def potential_colours(potential: npt.ArrayLike) -> npt.NDArray[np.uint8]:
@@ -233,6 +261,10 @@ class WorldLogger:
         self.recording.set_sinks(*sinks, default_blueprint=default_blueprint())
         self._trajectory: list[tuple[float, float, float]] = []
         self._last_pose: Pose2D | None = None
+        self._tick = 0
+        self._stamp_s = 0.0
+        self._to_columns = self._column_builders()
+        self._rows: dict[str, _Rows] = {entity: _Rows() for entity in self._to_columns}
         self._memory: MemoryFrame | None = None
         self._subgoal_id: int | None = None
         self._log_static()
@@ -253,9 +285,59 @@ class WorldLogger:
         for entity in (COMMAND, BASE_TWIST):
             rec.log(entity, rr.SeriesLines(names=[f"{entity} {name}" for name in TWIST_SERIES]), static=True)
 
+    def _column_builders(self) -> dict[str, Callable[[list[Any]], Any]]:
+        """How the held rows of each pose-rate entity become columns (the values are as :meth:`_hold`
+        gets them)."""
+        rr = self._rr
+
+        def twists(values: list[Any]) -> Any:
+            return rr.Scalars.columns(scalars=np.asarray(values, dtype=float).ravel()).partition(
+                [len(TWIST_SERIES)] * len(values)
+            )
+
+        return {
+            ROBOT: lambda values: rr.Transform3D.columns(
+                translation=[v[0] for v in values], quaternion=[v[1] for v in values]
+            ),
+            TRAJECTORY: lambda values: rr.LineStrips3D.columns(
+                strips=values, colors=[TRAJECTORY_COLOUR] * len(values), radii=[0.03] * len(values)
+            ),
+            COMMAND: twists,
+            BASE_TWIST: twists,
+            PLAN_TRAJECTORY: lambda values: rr.LineStrips3D.columns(
+                strips=[v[0] for v in values],
+                colors=[CONTROL_COLOUR] * len(values),
+                radii=[0.025] * len(values),
+                labels=[v[1] for v in values],
+            ),
+        }
+
+    def _hold(self, entity: str, value: Any) -> None:
+        """Hold one row of a pose-rate entity at the current frame's times (sent by :meth:`flush`)."""
+        self._rows[entity].add(self._tick, self._stamp_s, value)
+
+    def flush(self) -> None:
+        """Send the held rows, one ``rr.send_columns`` call per entity (the worker calls this after each
+        batch of frames)."""
+        rr = self._rr
+        for entity, to_columns in self._to_columns.items():
+            if not self._rows[entity].ticks:
+                continue
+            ticks, stamps_s, values = self._rows[entity].take()
+            rr.send_columns(
+                entity,
+                indexes=[
+                    rr.TimeColumn(TICK_TIMELINE, sequence=ticks),
+                    rr.TimeColumn(SIM_TIME_TIMELINE, duration=stamps_s),
+                ],
+                columns=to_columns(values),
+                recording=self.recording,
+            )
+
     def log(self, frame: WorldFrame) -> None:
-        """Log one frame at its tick and robot time."""
+        """Log one frame at its tick and robot time (the pose-rate rows wait for :meth:`flush`)."""
         rec = self.recording
+        self._tick, self._stamp_s = frame.tick, frame.stamp_s
         rec.set_time(TICK_TIMELINE, sequence=frame.tick)
         rec.set_time(SIM_TIME_TIMELINE, duration=frame.stamp_s)
         if frame.pose is not None:
@@ -284,21 +366,15 @@ class WorldLogger:
 
     # ------------------------------------------------------------------ the parts
     def _log_pose(self, pose: Pose2D, base_twist: Twist | None, command: Twist | None) -> None:
-        rr, rec = self._rr, self.recording
-        rec.log(
-            ROBOT,
-            rr.Transform3D(
-                translation=(pose.x_m, pose.y_m, 0.0), quaternion=yaw_quaternion_xyzw(pose.yaw_rad)
-            ),
-        )
+        self._hold(ROBOT, ((pose.x_m, pose.y_m, 0.0), yaw_quaternion_xyzw(pose.yaw_rad)))
         self._last_pose = pose
         point = (pose.x_m, pose.y_m, 0.05)
         if not self._trajectory or math.dist(point[:2], self._trajectory[-1][:2]) >= TRAJECTORY_STEP_M:
             self._trajectory.append(point)
-            rec.log(TRAJECTORY, rr.LineStrips3D([self._trajectory], colors=[TRAJECTORY_COLOUR], radii=[0.03]))
+            self._hold(TRAJECTORY, np.array(self._trajectory))
         for entity, twist in ((COMMAND, command), (BASE_TWIST, base_twist)):
             if twist is not None:
-                rec.log(entity, rr.Scalars([twist.linear_x_mps, twist.linear_y_mps, twist.angular_z_radps]))
+                self._hold(entity, (twist.linear_x_mps, twist.linear_y_mps, twist.angular_z_radps))
 
     def _log_map(self, layer: MapLayer) -> None:
         rr = self._rr
@@ -324,16 +400,13 @@ class WorldLogger:
     def _log_plan(self, plan: Any) -> None:
         """The controller's last cycle (``semexp_bt.nav.controller.ControlResult``): its trajectory in
         ``map``, labelled with the status and the command."""
-        rr = self._rr
         trajectory = np.asarray(getattr(plan, "trajectory", np.zeros((0, 3))), dtype=float).reshape(-1, 3)
         label = f"{getattr(plan, 'status', '')} v={plan.twist.linear_x_mps:.2f} w={plan.twist.angular_z_radps:.2f}"
         if len(trajectory) < 2:
-            self.recording.log(PLAN_TRAJECTORY, rr.Clear(recursive=False))
+            self.recording.log(PLAN_TRAJECTORY, self._rr.Clear(recursive=False))
             return
         strip = np.column_stack([trajectory[:, :2], np.full(len(trajectory), 0.06)])
-        self.recording.log(
-            PLAN_TRAJECTORY, rr.LineStrips3D([strip], colors=[CONTROL_COLOUR], radii=[0.025], labels=[label])
-        )
+        self._hold(PLAN_TRAJECTORY, (strip, label))
 
     def _log_observation(self, obs: Observation) -> None:
         import cv2
@@ -514,7 +587,8 @@ class WorldLogger:
         )
 
     def close(self) -> None:
-        """Flush everything to the sinks (the file is complete after this)."""
+        """Send the held rows and flush everything to the sinks (the file is complete after this)."""
+        self.flush()
         self.recording.flush(timeout_sec=30.0)
 
     def disconnect(self) -> None:
