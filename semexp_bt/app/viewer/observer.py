@@ -21,7 +21,6 @@ Example:
 
 from __future__ import annotations
 
-import dataclasses
 import queue
 import sys
 import threading
@@ -220,17 +219,15 @@ class ViewObserver:
         if self.capture is None or self.sink is None:
             return
         t0 = time.perf_counter()
-        frame = self.capture.capture(run, visited=self.recorder.visited_statuses())
-        if frame.has_news():
-            self._enqueue(frame)
+        self._enqueue(self.capture.capture(run, visited=self.recorder.visited_statuses()))
         self.capture_s += time.perf_counter() - t0
 
     def finish(self, run: MissionRun, outcome: str) -> None:
         """Log the last frame, wait for the worker, complete the recording; then (live) hand over to
         ``after_mission`` and close."""
         if self.capture is not None and self.sink is not None:
-            last = self.capture.capture(run, visited={}, force_pose=True)
-            self._enqueue(dataclasses.replace(last, outcome=outcome), wait_s=DRAIN_TIMEOUT_S)
+            last = self.capture.capture(run, visited={}, force_pose=True, outcome=outcome)
+            self._enqueue(last, wait_s=DRAIN_TIMEOUT_S)
         self._stop_worker()
         if self.sink is not None:
             try:
@@ -279,8 +276,9 @@ class ViewObserver:
                 self.sink = None
 
     # ------------------------------------------------------------------ the worker
-    def _enqueue(self, frame: WorldFrame, *, wait_s: float = 0.0) -> None:
-        if self.sink is None:
+    def _enqueue(self, frame: WorldFrame | None, *, wait_s: float = 0.0) -> None:
+        """Queue ``frame`` for the worker (None: the tick had nothing to draw), or drop and count it."""
+        if self.sink is None or frame is None:
             return
         self.frames_queued += 1
         try:
