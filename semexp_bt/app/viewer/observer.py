@@ -47,8 +47,8 @@ DRAIN_TIMEOUT_S = 120.0
 #: Once woken by a frame, the worker lets frames gather this long (wall seconds) and then logs all that
 #: are queued as one batch: the pose-rate streams go as columns, and the worker takes the interpreter
 #: lock a few times a batch rather than a few times a frame (on two cores every take waits for the tick
-#: thread). The live view lags by about this much.
-BATCH_GATHER_S = 0.1
+#: thread). The live view runs up to this much behind the mission.
+BATCH_GATHER_S = 0.25
 
 
 class ViewerUnavailableError(RuntimeError):
