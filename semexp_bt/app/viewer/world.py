@@ -263,6 +263,7 @@ class WorldLogger:
         self._last_pose: Pose2D | None = None
         self._tick = 0
         self._stamp_s = 0.0
+        self._time_set = False
         self._to_columns = self._column_builders()
         self._rows: dict[str, _Rows] = {entity: _Rows() for entity in self._to_columns}
         self._memory: MemoryFrame | None = None
@@ -336,10 +337,8 @@ class WorldLogger:
 
     def log(self, frame: WorldFrame) -> None:
         """Log one frame at its tick and robot time (the pose-rate rows wait for :meth:`flush`)."""
-        rec = self.recording
         self._tick, self._stamp_s = frame.tick, frame.stamp_s
-        rec.set_time(TICK_TIMELINE, sequence=frame.tick)
-        rec.set_time(SIM_TIME_TIMELINE, duration=frame.stamp_s)
+        self._time_set = False
         if frame.pose is not None:
             self._log_pose(frame.pose, frame.base_twist, frame.command)
         if frame.map is not None:
@@ -360,9 +359,18 @@ class WorldLogger:
             self._log_subgoal(frame.subgoal)
         for event in frame.events:
             details = ", ".join(f"{k}={v}" for k, v in event.items() if k not in ("kind", "stamp_s"))
-            rec.log(EVENTS, self._rr.TextLog(f"{event.get('kind', 'event')}: {details}", level="INFO"))
+            self._log(EVENTS, self._rr.TextLog(f"{event.get('kind', 'event')}: {details}", level="INFO"))
         if frame.outcome is not None:
-            rec.log(EVENTS, self._rr.TextLog(f"mission ended: {frame.outcome}", level="WARN"))
+            self._log(EVENTS, self._rr.TextLog(f"mission ended: {frame.outcome}", level="WARN"))
+
+    def _log(self, entity: str, *archetypes: Any) -> None:
+        """``rr.log`` at the current frame's tick and robot time (set on the first call of a frame: most
+        frames hold only pose-rate rows and need no time set at all)."""
+        if not self._time_set:
+            self.recording.set_time(TICK_TIMELINE, sequence=self._tick)
+            self.recording.set_time(SIM_TIME_TIMELINE, duration=self._stamp_s)
+            self._time_set = True
+        self.recording.log(entity, *archetypes)
 
     # ------------------------------------------------------------------ the parts
     def _log_pose(self, pose: Pose2D, base_twist: Twist | None, command: Twist | None) -> None:
@@ -381,10 +389,10 @@ class WorldLogger:
         height, width = layer.cells.shape
         # Rerun draws a grid map's first row at its far (+y) edge, as an image's top row; ROS (and
         # MapLayer) put the first row at the origin: flip the rows (checked by eye in the browser).
-        self.recording.log(
+        self._log(
             MAP,
             rr.GridMap(
-                data=np.ascontiguousarray(layer.cells[::-1]).astype(np.int8).tobytes(),
+                data=layer.cells[::-1].tobytes(),
                 format=rr.components.ImageFormat(
                     width=width, height=height, color_model="L", channel_datatype="U8"
                 ),
@@ -395,7 +403,7 @@ class WorldLogger:
         )
         if layer.path_xy is not None and len(layer.path_xy) > 1:
             path = np.column_stack([layer.path_xy, np.full(len(layer.path_xy), 0.05)])
-            self.recording.log(PLAN_PATH, rr.LineStrips3D([path], colors=[PATH_COLOUR], radii=[0.03]))
+            self._log(PLAN_PATH, rr.LineStrips3D([path], colors=[PATH_COLOUR], radii=[0.03]))
 
     def _log_plan(self, plan: Any) -> None:
         """The controller's last cycle (``semexp_bt.nav.controller.ControlResult``): its trajectory in
@@ -403,7 +411,7 @@ class WorldLogger:
         trajectory = np.asarray(getattr(plan, "trajectory", np.zeros((0, 3))), dtype=float).reshape(-1, 3)
         label = f"{getattr(plan, 'status', '')} v={plan.twist.linear_x_mps:.2f} w={plan.twist.angular_z_radps:.2f}"
         if len(trajectory) < 2:
-            self.recording.log(PLAN_TRAJECTORY, self._rr.Clear(recursive=False))
+            self._log(PLAN_TRAJECTORY, self._rr.Clear(recursive=False))
             return
         strip = np.column_stack([trajectory[:, :2], np.full(len(trajectory), 0.06)])
         self._hold(PLAN_TRAJECTORY, (strip, label))
@@ -411,11 +419,11 @@ class WorldLogger:
     def _log_observation(self, obs: Observation) -> None:
         import cv2
 
-        rr, rec = self._rr, self.recording
+        rr = self._rr
         k = obs.intrinsics
         transform = np.asarray(obs.camera_to_world, dtype=float)
-        rec.log(CAMERA, rr.Transform3D(translation=transform[:3, 3], mat3x3=transform[:3, :3]))
-        rec.log(
+        self._log(CAMERA, rr.Transform3D(translation=transform[:3, 3], mat3x3=transform[:3, :3]))
+        self._log(
             CAMERA_IMAGE,
             rr.Pinhole(
                 image_from_camera=k.matrix(),
@@ -428,20 +436,21 @@ class WorldLogger:
             ".jpg", np.ascontiguousarray(obs.rgb[..., ::-1]), [cv2.IMWRITE_JPEG_QUALITY, JPEG_QUALITY]
         )
         if ok:
-            rec.log(CAMERA_RGB, rr.EncodedImage(contents=jpeg.tobytes(), media_type="image/jpeg"))
-        depth = np.nan_to_num(np.asarray(obs.depth_m, dtype=float), nan=0.0) * DEPTH_UNITS_PER_M
-        rec.log(
-            CAMERA_DEPTH, rr.DepthImage(np.clip(depth, 0, 65535).astype(np.uint16), meter=DEPTH_UNITS_PER_M)
-        )
+            self._log(CAMERA_RGB, rr.EncodedImage(contents=jpeg.tobytes(), media_type="image/jpeg"))
+        # In float32 and in place: one buffer the size of the image instead of five float64 ones.
+        depth = np.multiply(obs.depth_m, DEPTH_UNITS_PER_M, dtype=np.float32)
+        np.nan_to_num(depth, copy=False, nan=0.0)
+        np.clip(depth, 0, np.iinfo(np.uint16).max, out=depth)
+        self._log(CAMERA_DEPTH, rr.DepthImage(depth.astype(np.uint16), meter=DEPTH_UNITS_PER_M))
         # The models have not answered about this frame yet: what they said about the last one goes.
         for entity in (DETECTIONS, PROPOSALS, TARGET):
-            rec.log(entity, rr.Clear(recursive=False))
+            self._log(entity, rr.Clear(recursive=False))
 
     def _log_answer(self, answer: ModelAnswer) -> None:
-        rr, rec = self._rr, self.recording
+        rr = self._rr
         detections = answer.detections or ()
         if detections:
-            rec.log(
+            self._log(
                 DETECTIONS,
                 rr.Boxes2D(
                     array=np.array([d.box_xyxy_px for d in detections], dtype=float),
@@ -451,10 +460,10 @@ class WorldLogger:
                 ),
             )
         else:
-            rec.log(DETECTIONS, rr.Clear(recursive=False))
+            self._log(DETECTIONS, rr.Clear(recursive=False))
         proposals = answer.scene_evidence.proposals if answer.scene_evidence is not None else ()
         if proposals:
-            rec.log(
+            self._log(
                 PROPOSALS,
                 rr.Points2D(
                     [p.point_px for p in proposals],
@@ -467,15 +476,15 @@ class WorldLogger:
                 ),
             )
         else:
-            rec.log(PROPOSALS, rr.Clear(recursive=False))
+            self._log(PROPOSALS, rr.Clear(recursive=False))
 
     def _log_target(self, arbitration: Any) -> None:
         rr = self._rr
         winner = getattr(arbitration, "winner", None)
         if winner is None:
-            self.recording.log(TARGET, rr.Clear(recursive=False))
+            self._log(TARGET, rr.Clear(recursive=False))
             return
-        self.recording.log(
+        self._log(
             TARGET,
             rr.Points2D(
                 [winner.pixel_px],
@@ -486,7 +495,7 @@ class WorldLogger:
         )
 
     def _log_memory(self, memory: MemoryFrame) -> None:
-        rr, rec = self._rr, self.recording
+        rr = self._rr
         self._memory = memory
         nodes = memory.nodes
         if not nodes:
@@ -496,7 +505,7 @@ class WorldLogger:
         potential = np.array([n.potential for n in nodes], dtype=float)
         labels = [f"{n.node_id} {n.label}" for n in nodes]
         colours = potential_colours(potential)
-        rec.log(
+        self._log(
             MEMORY_NODES,
             rr.Points3D(positions, radii=confidence_radii(confidence), colors=colours, labels=labels),
             rr.AnyValues(
@@ -510,7 +519,7 @@ class WorldLogger:
         )
         where = {n.node_id: n.position_m for n in nodes}
         strips = [[where[u], where[v]] for u, v in memory.edges if u in where and v in where]
-        rec.log(
+        self._log(
             MEMORY_EDGES,
             rr.LineStrips3D(strips, colors=[EDGE_COLOUR], radii=[0.01])
             if strips
@@ -528,7 +537,7 @@ class WorldLogger:
         confidence = np.array([n.confidence for n in nodes], dtype=float)
         colours = potential_colours([n.potential for n in nodes])
         colours[[n.node_id == self._subgoal_id for n in nodes]] = SUBGOAL_COLOUR
-        self.recording.log(
+        self._log(
             MEMORY_GRAPH,
             rr.GraphNodes(
                 [str(n.node_id) for n in nodes],
@@ -541,16 +550,16 @@ class WorldLogger:
         )
 
     def _log_decision(self, entry: Mapping[str, Any]) -> None:
-        rr, rec = self._rr, self.recording
-        rec.log(
+        rr = self._rr
+        self._log(
             EXPLANATION,
             rr.TextDocument(explain_decision(entry, self.decision_config), media_type="text/markdown"),
         )
         candidates: Sequence[Mapping[str, Any]] = entry.get("candidates", ())
         if not candidates:
-            rec.log(CANDIDATES, rr.Clear(recursive=False))
+            self._log(CANDIDATES, rr.Clear(recursive=False))
             return
-        rec.log(
+        self._log(
             CANDIDATES,
             rr.Points3D(
                 [(c["position_m"][0], c["position_m"][1], c["position_m"][2] + 0.4) for c in candidates],
@@ -573,10 +582,10 @@ class WorldLogger:
         self._subgoal_id = None if subgoal is None else subgoal.node_id
         self._log_graph()
         if subgoal is None:
-            self.recording.log(SUBGOAL, rr.Clear(recursive=False))
+            self._log(SUBGOAL, rr.Clear(recursive=False))
             return
         x, y, z = subgoal.position_m
-        self.recording.log(
+        self._log(
             SUBGOAL,
             rr.Points3D(
                 [(x, y, z + 0.4)],
