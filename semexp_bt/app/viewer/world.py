@@ -33,6 +33,7 @@ waits for the tick thread; the rows are the same ones, at the same ticks, either
 
 from __future__ import annotations
 
+import io
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -417,7 +418,9 @@ class WorldLogger:
         self._hold(PLAN_TRAJECTORY, (strip, label))
 
     def _log_observation(self, obs: Observation) -> None:
-        import cv2
+        # Pillow, not OpenCV: Rerun has imported it already, and importing cv2 at the first perceived
+        # frame took the worker (and the interpreter lock) a quarter of a second in the mission.
+        from PIL import Image
 
         rr = self._rr
         k = obs.intrinsics
@@ -432,11 +435,11 @@ class WorldLogger:
                 image_plane_distance=1.0,
             ),
         )
-        ok, jpeg = cv2.imencode(
-            ".jpg", np.ascontiguousarray(obs.rgb[..., ::-1]), [cv2.IMWRITE_JPEG_QUALITY, JPEG_QUALITY]
+        jpeg = io.BytesIO()
+        Image.fromarray(np.ascontiguousarray(obs.rgb, dtype=np.uint8)).save(
+            jpeg, format="JPEG", quality=JPEG_QUALITY
         )
-        if ok:
-            self._log(CAMERA_RGB, rr.EncodedImage(contents=jpeg.tobytes(), media_type="image/jpeg"))
+        self._log(CAMERA_RGB, rr.EncodedImage(contents=jpeg.getvalue(), media_type="image/jpeg"))
         # In float32 and in place: one buffer the size of the image instead of five float64 ones.
         depth = np.multiply(obs.depth_m, DEPTH_UNITS_PER_M, dtype=np.float32)
         np.nan_to_num(depth, copy=False, nan=0.0)
