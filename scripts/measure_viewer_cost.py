@@ -3,7 +3,9 @@
 Runs the README's mission (road, seed 0, lexical relevance; ``--sim-s`` caps the robot time) in fresh
 processes, alternating the configurations ``repeats`` times so that the machine's load falls on all of
 them alike, and prints for each the fastest run's wall and CPU seconds per simulated second (the run
-least disturbed by whatever else the machine does) and the extra share over ``off``:
+least disturbed by whatever else the machine does) and the extra share over ``off``, and the median over
+the repeats of each run's share over the ``off`` run of the same repeat (paired: on a machine whose load
+changes from minute to minute, the fastest ``off`` and the fastest ``view`` may have met different loads):
 
 - ``off``: no recorder, no view (what ``semexp-bt run`` costs);
 - ``record``: ``--record`` (the JSONL tick record alone, for reference);
@@ -109,17 +111,25 @@ def main() -> int:
     base = min(r["wall_per_sim_s"] for r in results[configs[0]])
     base_cpu = min(r["cpu_per_sim_s"] for r in results[configs[0]])
     print(
-        f"| config | wall s per sim s | extra wall vs {configs[0]} | CPU s per sim s | extra CPU | tick p99 ms | frames dropped |"
+        f"| config | wall s per sim s | extra wall vs {configs[0]} | paired extra wall | CPU s per sim s | extra CPU | paired extra CPU | tick p99 ms | frames dropped |"
     )
-    print("| --- | --- | --- | --- | --- | --- | --- |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
     for config in configs:
         rows = results[config]
         wall = min(r["wall_per_sim_s"] for r in rows)
         cpu = min(r["cpu_per_sim_s"] for r in rows)
+        paired = {
+            key: statistics.median(
+                r[key] / o[key] - 1 for r, o in zip(rows, results[configs[0]], strict=True)
+            )
+            for key in ("wall_per_sim_s", "cpu_per_sim_s")
+        }
         p99 = statistics.median(r["tick_p99_ms"] for r in rows)
         dropped = "-" if "frames_dropped" not in rows[0] else f"{max(r['frames_dropped'] for r in rows):.0f}"
         print(
-            f"| {config} | {wall:.4f} | {100 * (wall / base - 1):+.1f} % | {cpu:.4f} | {100 * (cpu / base_cpu - 1):+.1f} % | {p99:.2f} | {dropped} |"
+            f"| {config} | {wall:.4f} | {100 * (wall / base - 1):+.1f} % | {100 * paired['wall_per_sim_s']:+.1f} %"
+            f" | {cpu:.4f} | {100 * (cpu / base_cpu - 1):+.1f} % | {100 * paired['cpu_per_sim_s']:+.1f} %"
+            f" | {p99:.2f} | {dropped} |"
         )
     return 0
 

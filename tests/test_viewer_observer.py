@@ -74,6 +74,9 @@ class ListSink:
             self.waited_out = True
         self.frames.append(frame)
 
+    def flush(self) -> None:
+        return
+
     def close(self) -> None:
         return
 
@@ -174,6 +177,8 @@ def test_the_record_holds_every_nodes_status_at_every_tick(tmp_path: Path) -> No
     # Without ``stopped`` the rebuilt tree would be wrong: preempted branches keep their old status.
     stopped = [json.loads(line).get("stopped", {}) for line in lines]
     assert any("INVALID" in s.values() for s in stopped)
+    # The recorder puts each line together from cached pieces: it is exactly what json.dumps writes.
+    assert all(json.dumps(json.loads(line)) == line for line in lines)
 
 
 def test_a_saved_view_holds_every_tick_and_the_worlds_frames(tmp_path: Path) -> None:

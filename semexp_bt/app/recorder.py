@@ -40,11 +40,15 @@ from blackboard.schema import summarize
 if TYPE_CHECKING:
     from semexp_bt.app.runner import MissionRun
 
-_STATUS_BY_NAME = {status.name: status for status in py_trees.common.Status}
+#: Each status's name (``Enum.name`` is a property, and slow at a few per node and tick).
+_STATUS_NAME = {status: status.name for status in py_trees.common.Status}
 #: Keys written at the gait or planner rate; the display does not treat them as news.
 HIGH_RATE_KEYS = frozenset({"/cmd_twist", "/cmd_stamp_s", "/plan"})
 #: The record file is fsynced every this many ticks (one second of robot time at 50 Hz) and at the end.
 FSYNC_EVERY_TICKS = 50
+#: The JSON of a node's record entry is kept by (name, status, feedback) (see ``_node_entries``); the
+#: cache starts again when it holds this many (a feedback message with a counter makes new ones).
+NODE_JSON_CACHE = 4096
 
 
 class RecordError(ValueError):
@@ -52,11 +56,11 @@ class RecordError(ValueError):
 
 
 class _TimingVisitor(py_trees.visitors.VisitorBase):
-    """Status and own wall time of every node visited in one tick."""
+    """Status, own wall time and feedback of every node visited in one tick."""
 
     def __init__(self) -> None:
         super().__init__(full=False)
-        self.statuses: dict[str, tuple[str, float, str]] = {}
+        self.statuses: dict[str, tuple[py_trees.common.Status, float, str]] = {}
         self._last = 0.0
 
     def initialise(self) -> None:
@@ -66,7 +70,7 @@ class _TimingVisitor(py_trees.visitors.VisitorBase):
     def run(self, behaviour: py_trees.behaviour.Behaviour) -> None:
         now = time.perf_counter()
         self.statuses[behaviour.name] = (
-            behaviour.status.name,
+            behaviour.status,
             (now - self._last) * 1e3,
             behaviour.feedback_message,
         )
@@ -103,8 +107,10 @@ class TickRecorder:
         self._unsynced = 0
         self._previous: dict[str, str] = {}
         self._nodes: list[py_trees.behaviour.Behaviour] = []
+        self._index: dict[str, int] = {}
         self._last: list[py_trees.common.Status] = []
         self._visitor = _TimingVisitor()
+        self._node_json: dict[tuple[str, py_trees.common.Status, str], tuple[str, str]] = {}
 
     def listen(self, on_record: Callable[[int, str], None]) -> None:
         """Hand every tick's number and JSON line to ``on_record`` (before the mission starts)."""
@@ -113,7 +119,7 @@ class TickRecorder:
 
     def visited_statuses(self) -> dict[str, str]:
         """The status of every node ticked in the last tick, by name."""
-        return {name: status for name, (status, _, _) in self._visitor.statuses.items()}
+        return {name: _STATUS_NAME[status] for name, (status, _, _) in self._visitor.statuses.items()}
 
     def start(self, run: MissionRun) -> None:
         """Attach the timing visitor to the tree and open the record file."""
@@ -123,6 +129,8 @@ class TickRecorder:
         run.tree.visitors.append(self._visitor)
         run.tree.add_pre_tick_handler(lambda _tree: self._visitor.initialise())
         self._nodes = list(run.tree.root.iterate())
+        # A mission's node names are unique (the loader checks), so a name is a node.
+        self._index = {node.name: i for i, node in enumerate(self._nodes)}
         self._last = [node.status for node in self._nodes]
         if self.path is not None:
             Path(self.path).parent.mkdir(parents=True, exist_ok=True)
@@ -160,48 +168,69 @@ class TickRecorder:
         statuses = self._visitor.statuses
         writes = self._drain_activity()
         if self._fd >= 0 or self.on_record is not None:
-            record: dict[str, Any] = {
-                "tick": tick,
-                "stamp_s": round(stamp_s, 4),
-                "nodes": {
-                    name: {"status": s, "ms": round(ms, 4), "feedback": fb}
-                    for name, (s, ms, fb) in statuses.items()
-                },
-                "writes": writes,
-            }
+            # The line json.dumps would write for {"tick", "stamp_s", "nodes", "writes"[, "stopped"]}, put
+            # together from cached pieces: it is the tick thread's largest share of the record's cost.
+            line = (
+                f'{{"tick": {tick}, "stamp_s": {round(stamp_s, 4)!r}, "nodes": {{{self._node_entries(statuses)}}}'
+                f', "writes": {json.dumps(writes) if writes else "[]"}'
+            )
             stopped = self._stopped_nodes(statuses)
-            if stopped:
-                record["stopped"] = stopped
-            line = json.dumps(record)
+            line += f', "stopped": {json.dumps(stopped)}}}' if stopped else "}"
             if self._fd >= 0:
                 self._write_line((line + "\n").encode("utf-8"))
             if self.on_record is not None:
                 self.on_record(tick, line)
         if self.display:
-            changed = {name: s for name, (s, _, _) in statuses.items() if self._previous.get(name) != s}
+            names = {name: _STATUS_NAME[s] for name, (s, _, _) in statuses.items()}
+            changed = {name: s for name, s in names.items() if self._previous.get(name) != s}
             news = [w for w in writes if w["key"] not in HIGH_RATE_KEYS]
             if changed or news:
                 self._show(tick, stamp_s, news)
-            self._previous.update({name: s for name, (s, _, _) in statuses.items()})
+            self._previous.update(names)
 
-    def _stopped_nodes(self, statuses: dict[str, tuple[str, float, str]]) -> dict[str, str]:
+    def _node_entries(self, statuses: dict[str, tuple[py_trees.common.Status, float, str]]) -> str:
+        """The record's ``nodes`` object without its braces, as ``json.dumps`` writes it: each entry is
+        ``"name": {"status": ..., "ms": ..., "feedback": ...}``, and only ``ms`` changes from tick to tick,
+        so the JSON before and after it is cached."""
+        cache = self._node_json
+        if len(cache) > NODE_JSON_CACHE:
+            cache.clear()
+        entries = []
+        for name, (status, ms, feedback) in statuses.items():
+            key = (name, status, feedback)
+            pieces = cache.get(key)
+            if pieces is None:
+                pieces = cache[key] = (
+                    f'{json.dumps(name)}: {{"status": "{_STATUS_NAME[status]}", "ms": ',
+                    f', "feedback": {json.dumps(feedback)}}}',
+                )
+            entries.append(f"{pieces[0]}{round(ms, 4)!r}{pieces[1]}")
+        return ", ".join(entries)
+
+    def _stopped_nodes(
+        self, statuses: dict[str, tuple[py_trees.common.Status, float, str]]
+    ) -> dict[str, str]:
         """Nodes whose status after the tick differs from what their visit reported, by name.
 
         A parent may stop a child it did not tick (a selector with memory resuming a later child stops
         the earlier ones) or one it ticked earlier in the same tick (a parallel that succeeds stops its
-        running guards): both end INVALID without a visit saying so. One pass over the nodes' statuses,
-        compared by identity (the enum's ``name`` is a slow property), finds them.
+        running guards): both end INVALID without a visit saying so. The statuses after the tick, in one
+        list, are compared by identity with what the visits and the previous tick say (on most ticks
+        the two lists are equal and the comparison is one C loop).
         """
-        stopped = {}
-        last = self._last
-        for i, node in enumerate(self._nodes):
-            status = node.status
-            visit = statuses.get(node.name)
-            expected = last[i] if visit is None else _STATUS_BY_NAME[visit[0]]
-            if status is not expected:
-                stopped[node.name] = status.name
-            last[i] = status
-        return stopped
+        expected = self._last
+        index = self._index
+        for name, visit in statuses.items():
+            expected[index[name]] = visit[0]
+        now = [node.status for node in self._nodes]
+        self._last = now
+        if now == expected:
+            return {}
+        return {
+            node.name: _STATUS_NAME[status]
+            for node, status, wanted in zip(self._nodes, now, expected, strict=True)
+            if status is not wanted
+        }
 
     def _show(self, tick: int, stamp_s: float, news: list[dict[str, Any]]) -> None:
         out = self.stream

@@ -103,24 +103,6 @@ class WorldFrame:
     events: tuple[Mapping[str, Any], ...] = field(default_factory=tuple)
     outcome: str | None = None
 
-    def has_news(self) -> bool:
-        """Whether anything besides the tick number is in the frame."""
-        return any(
-            (
-                self.pose is not None,
-                self.observation is not None,
-                self.answer is not None,
-                self.arbitration is not None,
-                self.memory is not None,
-                self.decision is not None,
-                self.subgoal_changed,
-                self.plan is not None,
-                self.map is not None,
-                self.events,
-                self.outcome is not None,
-            )
-        )
-
 
 class FrameCapture:
     """Builds the :class:`WorldFrame` of each tick on the tick thread (see the module docstring).
@@ -153,18 +135,27 @@ class FrameCapture:
         self._seen[key] = value
         return True, value
 
-    def capture(self, run: MissionRun, *, visited: Mapping[str, str], force_pose: bool = False) -> WorldFrame:
-        """The frame of the tick that just ran.
+    def capture(
+        self,
+        run: MissionRun,
+        *,
+        visited: Mapping[str, str],
+        force_pose: bool = False,
+        outcome: str | None = None,
+    ) -> WorldFrame | None:
+        """The frame of the tick that just ran, or None when the tick changed nothing the view draws (most
+        ticks: no frame is built for them).
 
         Args:
             run: the running mission.
             visited: the status of every node ticked this tick, by name (the tick record's ``nodes``).
             force_pose: read the pose even when it is not due (the first and the last frame).
+            outcome: the mission's outcome (the last frame).
         """
         storage = py_trees.blackboard.Blackboard.storage
         services = run.services
         now = run.now_s()
-        fields: dict[str, Any] = {}
+        fields: dict[str, Any] = {} if outcome is None else {"outcome": outcome}
         if force_pose or now >= self._pose_due_s:
             self._pose_due_s = now + 1.0 / POSE_RATE_HZ - 1e-9
             robot = services.robot
@@ -188,7 +179,7 @@ class FrameCapture:
         new_arbitration, arbitration = self._new(storage, "/arbitration")
         if new_arbitration and arbitration is not None:
             fields["arbitration"] = arbitration
-        if any(visited.get(name) in _DONE for name in self.memory_writers) or "/memory" not in self._seen:
+        if "/memory" not in self._seen or not _DONE.isdisjoint(map(visited.get, self.memory_writers)):
             memory = storage.get("/memory")
             if memory is not None:
                 self._seen["/memory"] = memory
@@ -203,14 +194,15 @@ class FrameCapture:
         if new_subgoal:
             fields["subgoal_changed"] = True
             fields["subgoal"] = subgoal if isinstance(subgoal, Subgoal) else None
-        version = map_version(storage)
-        if version is not None and version != self._map_version and now >= self._map_due_s:
-            layer = map_layer(storage)
-            if layer is not None:
-                fields["map"] = layer
-                self._map_version = version
-                self._map_due_s = now + MAP_PERIOD_S - 1e-9
+        if now >= self._map_due_s:
+            version = map_version(storage)
+            if version is not None and version != self._map_version:
+                layer = map_layer(storage)
+                if layer is not None:
+                    fields["map"] = layer
+                    self._map_version = version
+                    self._map_due_s = now + MAP_PERIOD_S - 1e-9
         if len(services.events) > self._events:
             fields["events"] = tuple(services.events[self._events :])
             self._events = len(services.events)
-        return WorldFrame(tick=run.tick, stamp_s=now, **fields)
+        return WorldFrame(tick=run.tick, stamp_s=now, **fields) if fields else None

@@ -5,7 +5,7 @@
 On the tick thread it does only cheap things: it hands each tick's record to the page's feed and the
 saved recording, and it puts the tick's :class:`~semexp_bt.app.viewer.frames.WorldFrame` (if the tick
 changed anything worth drawing) into a bounded queue. A worker thread takes the frames from the queue
-and logs them to Rerun. When the queue is full the frame is dropped and counted, and the tick goes on:
+and logs them to Rerun, and writes the saved recording's tick records. When the queue is full the frame is dropped and counted, and the tick goes on:
 a slow browser, a slow disk or a busy core cost the view frames, never the tree ticks. The tick
 records themselves are small and are never dropped.
 
@@ -21,7 +21,6 @@ Example:
 
 from __future__ import annotations
 
-import dataclasses
 import queue
 import sys
 import threading
@@ -45,6 +44,11 @@ if TYPE_CHECKING:
 QUEUE_FRAMES = 512
 #: How long ``finish`` waits for the worker to log what is queued (wall seconds).
 DRAIN_TIMEOUT_S = 120.0
+#: Once woken by a frame, the worker lets frames gather this long (wall seconds) and then logs all that
+#: are queued as one batch: the pose-rate streams go as columns, and the worker takes the interpreter
+#: lock a few times a batch rather than a few times a frame (on two cores every take waits for the tick
+#: thread). The live view runs up to this much behind the mission.
+BATCH_GATHER_S = 0.25
 
 
 class ViewerUnavailableError(RuntimeError):
@@ -52,9 +56,12 @@ class ViewerUnavailableError(RuntimeError):
 
 
 class FrameSink(Protocol):
-    """Where the worker thread sends frames (:class:`~semexp_bt.app.viewer.world.WorldLogger`)."""
+    """Where the worker thread sends frames (:class:`~semexp_bt.app.viewer.world.WorldLogger`): ``log``
+    for each frame of a batch, then ``flush`` once."""
 
     def log(self, frame: WorldFrame) -> None: ...
+
+    def flush(self) -> None: ...
 
     def close(self) -> None: ...
 
@@ -147,7 +154,6 @@ class ViewObserver:
         self.frames_dropped = 0
         self.frames_logged = 0
         self.worker_errors: list[str] = []
-        self.capture_s = 0.0
         self._queue: queue.Queue[WorldFrame | None] = queue.Queue(maxsize=max(1, options.queue_frames))
         self._worker: threading.Thread | None = None
         self._world_file: Path | None = None
@@ -191,7 +197,8 @@ class ViewObserver:
             grpc_url = getattr(self.sink, "grpc_url", None)
             if self.feed is not None and grpc_url:
                 self.feed.update_session(world={"kind": "grpc", "url": grpc_url})
-            self._worker = threading.Thread(target=self._work, name="semexp-view-world", daemon=True)
+        if self.sink is not None or self.writer is not None:
+            self._worker = threading.Thread(target=self._work, name="semexp-view", daemon=True)
             self._worker.start()
         self.capture = FrameCapture.for_tree(run.tree.root)
         self._enqueue(self.capture.capture(run, visited={}, force_pose=True))
@@ -211,18 +218,14 @@ class ViewObserver:
         """Queue the tick's world frame (or drop it when the worker is behind)."""
         if self.capture is None or self.sink is None:
             return
-        t0 = time.perf_counter()
-        frame = self.capture.capture(run, visited=self.recorder.visited_statuses())
-        if frame.has_news():
-            self._enqueue(frame)
-        self.capture_s += time.perf_counter() - t0
+        self._enqueue(self.capture.capture(run, visited=self.recorder.visited_statuses()))
 
     def finish(self, run: MissionRun, outcome: str) -> None:
         """Log the last frame, wait for the worker, complete the recording; then (live) hand over to
         ``after_mission`` and close."""
         if self.capture is not None and self.sink is not None:
-            last = self.capture.capture(run, visited={}, force_pose=True)
-            self._enqueue(dataclasses.replace(last, outcome=outcome), wait_s=DRAIN_TIMEOUT_S)
+            last = self.capture.capture(run, visited={}, force_pose=True, outcome=outcome)
+            self._enqueue(last, wait_s=DRAIN_TIMEOUT_S)
         self._stop_worker()
         if self.sink is not None:
             try:
@@ -271,8 +274,9 @@ class ViewObserver:
                 self.sink = None
 
     # ------------------------------------------------------------------ the worker
-    def _enqueue(self, frame: WorldFrame, *, wait_s: float = 0.0) -> None:
-        if self.sink is None:
+    def _enqueue(self, frame: WorldFrame | None, *, wait_s: float = 0.0) -> None:
+        """Queue ``frame`` for the worker (None: the tick had nothing to draw), or drop and count it."""
+        if self.sink is None or frame is None:
             return
         self.frames_queued += 1
         try:
@@ -284,18 +288,48 @@ class ViewObserver:
             self.frames_dropped += 1
 
     def _work(self) -> None:
-        sink = self.sink
-        assert sink is not None  # the worker starts after the sink
         while True:
-            frame = self._queue.get()
+            try:
+                frame = self._queue.get(timeout=BATCH_GATHER_S)
+            except queue.Empty:  # no world frames (or no world): the tick records still go to disk
+                self._flush()
+                continue
+            if frame is not None:
+                time.sleep(BATCH_GATHER_S)
+            # The batch is what has been queued by now; frames are taken one at a time, so the worker
+            # never holds more than one beyond the bounded queue.
+            remaining = self._queue.qsize()
+            while frame is not None:
+                self._log(frame)
+                if remaining == 0:
+                    break
+                remaining -= 1
+                frame = self._queue.get()
+            self._flush()
             if frame is None:
                 return
-            try:
-                sink.log(frame)
-                self.frames_logged += 1
-            except Exception as exc:
-                if len(self.worker_errors) < 10:
-                    self.worker_errors.append(f"tick {frame.tick}: {type(exc).__name__}: {exc}")
+
+    def _log(self, frame: WorldFrame) -> None:
+        assert self.sink is not None  # only frames for a sink are queued
+        try:
+            self.sink.log(frame)
+            self.frames_logged += 1
+        except Exception as exc:
+            self._worker_error(f"tick {frame.tick}: {type(exc).__name__}: {exc}")
+
+    def _flush(self) -> None:
+        """Send the batch's held rows to the world and write the tick records handed over so far."""
+        try:
+            if self.sink is not None:
+                self.sink.flush()
+            if self.writer is not None:
+                self.writer.flush()
+        except Exception as exc:
+            self._worker_error(f"writing a batch: {type(exc).__name__}: {exc}")
+
+    def _worker_error(self, message: str) -> None:
+        if len(self.worker_errors) < 10:
+            self.worker_errors.append(message)
 
     def _stop_worker(self) -> None:
         if self._worker is None:

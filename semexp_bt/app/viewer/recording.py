@@ -18,6 +18,7 @@ The manifest is written when recording starts (``status: recording``) and again 
 from __future__ import annotations
 
 import json
+from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TextIO
@@ -64,6 +65,11 @@ class SavedRecording:
 class RecordingWriter:
     """Writes a recording directory as the mission runs (the view observer drives it).
 
+    The tick thread only hands each tick's line over (:meth:`write_tick`); the view's worker thread
+    writes what has been handed over (:meth:`flush`), so a slow disk holds up the worker and never the
+    tree. A crash loses the lines not yet flushed (the worker flushes a few times a second) and tears at
+    most the last line written, which :func:`open_recording` drops.
+
     Args:
         directory: created if missing; an existing recording there is replaced.
     """
@@ -72,6 +78,8 @@ class RecordingWriter:
         self.directory = Path(directory)
         self.manifest: dict[str, Any] = {}
         self._ticks: TextIO | None = None
+        # A deque: the tick thread appends while the worker pops, with no lock (both are atomic).
+        self._pending: deque[str] = deque()
 
     @property
     def world_path(self) -> Path:
@@ -93,13 +101,23 @@ class RecordingWriter:
         self._ticks = open(self.directory / TICKS_FILE, "w")
 
     def write_tick(self, line: str) -> None:
-        """Append one tick record (a JSON line without its newline)."""
-        if self._ticks is not None:
-            self._ticks.write(line + "\n")
+        """Hand over one tick record (a JSON line without its newline); :meth:`flush` writes it."""
+        self._pending.append(line)
+
+    def flush(self) -> None:
+        """Write the tick records handed over so far, in one write (the view's worker calls this)."""
+        if self._ticks is None or not self._pending:
+            return
+        pending = self._pending
+        lines = [pending.popleft() for _ in range(len(pending))]
+        self._ticks.write("\n".join(lines) + "\n")
+        self._ticks.flush()
 
     def finish(self, **summary: Any) -> None:
-        """Close the tick file and complete the manifest with ``summary`` (outcome, ticks, counts)."""
+        """Write what is left, close the tick file and complete the manifest with ``summary`` (outcome,
+        ticks, counts)."""
         if self._ticks is not None:
+            self.flush()
             self._ticks.close()
             self._ticks = None
         self.manifest.update(summary, status=STATUS_COMPLETE)

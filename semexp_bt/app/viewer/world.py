@@ -23,12 +23,20 @@ What is logged where (the entity paths are named once, here, and read back by th
   for the winner and the runners-up (markdown).
 - ``command`` the commanded twist, ``robot/base_twist`` the measured one (time series); ``events`` the
   mission's events (text log).
+
+The streams that come at the pose rate (the pose, the trajectory, both twists, the controller's
+trajectory) are held as rows and sent as columns (``rr.send_columns``) when the worker calls
+:meth:`WorldLogger.flush` after each batch of frames: one native call per entity and batch instead of one
+per row. Every ``rr.log`` call releases and retakes the interpreter lock, and on two cores each retake
+waits for the tick thread; the rows are the same ones, at the same ticks, either way.
 """
 
 from __future__ import annotations
 
+import io
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -94,6 +102,27 @@ TRAJECTORY_COLOUR = (90, 170, 255)
 CONTROL_COLOUR = (60, 230, 120)
 PATH_COLOUR = (255, 255, 255)
 EDGE_COLOUR = (150, 150, 150)
+
+
+@dataclass
+class _Rows:
+    """Rows of one entity held for one ``rr.send_columns`` call: their times and values."""
+
+    ticks: list[int] = field(default_factory=list)
+    stamps_s: list[float] = field(default_factory=list)
+    values: list[Any] = field(default_factory=list)
+
+    def add(self, tick: int, stamp_s: float, value: Any) -> None:
+        """Hold one row."""
+        self.ticks.append(tick)
+        self.stamps_s.append(stamp_s)
+        self.values.append(value)
+
+    def take(self) -> tuple[list[int], list[float], list[Any]]:
+        """The ticks, robot times and values held; the rows are emptied."""
+        taken = (self.ticks, self.stamps_s, self.values)
+        self.ticks, self.stamps_s, self.values = [], [], []
+        return taken
 
 
 def potential_colours(potential: npt.ArrayLike) -> npt.NDArray[np.uint8]:
@@ -233,6 +262,11 @@ class WorldLogger:
         self.recording.set_sinks(*sinks, default_blueprint=default_blueprint())
         self._trajectory: list[tuple[float, float, float]] = []
         self._last_pose: Pose2D | None = None
+        self._tick = 0
+        self._stamp_s = 0.0
+        self._time_set = False
+        self._to_columns = self._column_builders()
+        self._rows: dict[str, _Rows] = {entity: _Rows() for entity in self._to_columns}
         self._memory: MemoryFrame | None = None
         self._subgoal_id: int | None = None
         self._log_static()
@@ -253,11 +287,59 @@ class WorldLogger:
         for entity in (COMMAND, BASE_TWIST):
             rec.log(entity, rr.SeriesLines(names=[f"{entity} {name}" for name in TWIST_SERIES]), static=True)
 
+    def _column_builders(self) -> dict[str, Callable[[list[Any]], Any]]:
+        """How the held rows of each pose-rate entity become columns (the values are as :meth:`_hold`
+        gets them)."""
+        rr = self._rr
+
+        def twists(values: list[Any]) -> Any:
+            return rr.Scalars.columns(scalars=np.asarray(values, dtype=float).ravel()).partition(
+                [len(TWIST_SERIES)] * len(values)
+            )
+
+        return {
+            ROBOT: lambda values: rr.Transform3D.columns(
+                translation=[v[0] for v in values], quaternion=[v[1] for v in values]
+            ),
+            TRAJECTORY: lambda values: rr.LineStrips3D.columns(
+                strips=values, colors=[TRAJECTORY_COLOUR] * len(values), radii=[0.03] * len(values)
+            ),
+            COMMAND: twists,
+            BASE_TWIST: twists,
+            PLAN_TRAJECTORY: lambda values: rr.LineStrips3D.columns(
+                strips=[v[0] for v in values],
+                colors=[CONTROL_COLOUR] * len(values),
+                radii=[0.025] * len(values),
+                labels=[v[1] for v in values],
+            ),
+        }
+
+    def _hold(self, entity: str, value: Any) -> None:
+        """Hold one row of a pose-rate entity at the current frame's times (sent by :meth:`flush`)."""
+        self._rows[entity].add(self._tick, self._stamp_s, value)
+
+    def flush(self) -> None:
+        """Send the held rows, one ``rr.send_columns`` call per entity (the worker calls this after each
+        batch of frames)."""
+        rr = self._rr
+        for entity, to_columns in self._to_columns.items():
+            if not self._rows[entity].ticks:
+                continue
+            ticks, stamps_s, values = self._rows[entity].take()
+            rr.send_columns(
+                entity,
+                indexes=[
+                    rr.TimeColumn(TICK_TIMELINE, sequence=ticks),
+                    rr.TimeColumn(SIM_TIME_TIMELINE, duration=stamps_s),
+                ],
+                columns=to_columns(values),
+                recording=self.recording,
+            )
+
     def log(self, frame: WorldFrame) -> None:
-        """Log one frame at its tick and robot time."""
-        rec = self.recording
-        rec.set_time(TICK_TIMELINE, sequence=frame.tick)
-        rec.set_time(SIM_TIME_TIMELINE, duration=frame.stamp_s)
+        """Log one frame at its tick and robot time (the pose-rate rows wait for :meth:`flush`)."""
+        self._tick, self._stamp_s = frame.tick, frame.stamp_s
+        self._time_set = False
         if frame.pose is not None:
             self._log_pose(frame.pose, frame.base_twist, frame.command)
         if frame.map is not None:
@@ -278,37 +360,40 @@ class WorldLogger:
             self._log_subgoal(frame.subgoal)
         for event in frame.events:
             details = ", ".join(f"{k}={v}" for k, v in event.items() if k not in ("kind", "stamp_s"))
-            rec.log(EVENTS, self._rr.TextLog(f"{event.get('kind', 'event')}: {details}", level="INFO"))
+            self._log(EVENTS, self._rr.TextLog(f"{event.get('kind', 'event')}: {details}", level="INFO"))
         if frame.outcome is not None:
-            rec.log(EVENTS, self._rr.TextLog(f"mission ended: {frame.outcome}", level="WARN"))
+            self._log(EVENTS, self._rr.TextLog(f"mission ended: {frame.outcome}", level="WARN"))
+
+    def _log(self, entity: str, *archetypes: Any) -> None:
+        """``rr.log`` at the current frame's tick and robot time (set on the first call of a frame: most
+        frames hold only pose-rate rows and need no time set at all)."""
+        if not self._time_set:
+            self.recording.set_time(TICK_TIMELINE, sequence=self._tick)
+            self.recording.set_time(SIM_TIME_TIMELINE, duration=self._stamp_s)
+            self._time_set = True
+        self.recording.log(entity, *archetypes)
 
     # ------------------------------------------------------------------ the parts
     def _log_pose(self, pose: Pose2D, base_twist: Twist | None, command: Twist | None) -> None:
-        rr, rec = self._rr, self.recording
-        rec.log(
-            ROBOT,
-            rr.Transform3D(
-                translation=(pose.x_m, pose.y_m, 0.0), quaternion=yaw_quaternion_xyzw(pose.yaw_rad)
-            ),
-        )
+        self._hold(ROBOT, ((pose.x_m, pose.y_m, 0.0), yaw_quaternion_xyzw(pose.yaw_rad)))
         self._last_pose = pose
         point = (pose.x_m, pose.y_m, 0.05)
         if not self._trajectory or math.dist(point[:2], self._trajectory[-1][:2]) >= TRAJECTORY_STEP_M:
             self._trajectory.append(point)
-            rec.log(TRAJECTORY, rr.LineStrips3D([self._trajectory], colors=[TRAJECTORY_COLOUR], radii=[0.03]))
+            self._hold(TRAJECTORY, np.array(self._trajectory))
         for entity, twist in ((COMMAND, command), (BASE_TWIST, base_twist)):
             if twist is not None:
-                rec.log(entity, rr.Scalars([twist.linear_x_mps, twist.linear_y_mps, twist.angular_z_radps]))
+                self._hold(entity, (twist.linear_x_mps, twist.linear_y_mps, twist.angular_z_radps))
 
     def _log_map(self, layer: MapLayer) -> None:
         rr = self._rr
         height, width = layer.cells.shape
         # Rerun draws a grid map's first row at its far (+y) edge, as an image's top row; ROS (and
         # MapLayer) put the first row at the origin: flip the rows (checked by eye in the browser).
-        self.recording.log(
+        self._log(
             MAP,
             rr.GridMap(
-                data=np.ascontiguousarray(layer.cells[::-1]).astype(np.int8).tobytes(),
+                data=layer.cells[::-1].tobytes(),
                 format=rr.components.ImageFormat(
                     width=width, height=height, color_model="L", channel_datatype="U8"
                 ),
@@ -319,30 +404,29 @@ class WorldLogger:
         )
         if layer.path_xy is not None and len(layer.path_xy) > 1:
             path = np.column_stack([layer.path_xy, np.full(len(layer.path_xy), 0.05)])
-            self.recording.log(PLAN_PATH, rr.LineStrips3D([path], colors=[PATH_COLOUR], radii=[0.03]))
+            self._log(PLAN_PATH, rr.LineStrips3D([path], colors=[PATH_COLOUR], radii=[0.03]))
 
     def _log_plan(self, plan: Any) -> None:
         """The controller's last cycle (``semexp_bt.nav.controller.ControlResult``): its trajectory in
         ``map``, labelled with the status and the command."""
-        rr = self._rr
         trajectory = np.asarray(getattr(plan, "trajectory", np.zeros((0, 3))), dtype=float).reshape(-1, 3)
         label = f"{getattr(plan, 'status', '')} v={plan.twist.linear_x_mps:.2f} w={plan.twist.angular_z_radps:.2f}"
         if len(trajectory) < 2:
-            self.recording.log(PLAN_TRAJECTORY, rr.Clear(recursive=False))
+            self._log(PLAN_TRAJECTORY, self._rr.Clear(recursive=False))
             return
         strip = np.column_stack([trajectory[:, :2], np.full(len(trajectory), 0.06)])
-        self.recording.log(
-            PLAN_TRAJECTORY, rr.LineStrips3D([strip], colors=[CONTROL_COLOUR], radii=[0.025], labels=[label])
-        )
+        self._hold(PLAN_TRAJECTORY, (strip, label))
 
     def _log_observation(self, obs: Observation) -> None:
-        import cv2
+        # Pillow, not OpenCV: Rerun has imported it already, and importing cv2 at the first perceived
+        # frame took the worker (and the interpreter lock) a quarter of a second in the mission.
+        from PIL import Image
 
-        rr, rec = self._rr, self.recording
+        rr = self._rr
         k = obs.intrinsics
         transform = np.asarray(obs.camera_to_world, dtype=float)
-        rec.log(CAMERA, rr.Transform3D(translation=transform[:3, 3], mat3x3=transform[:3, :3]))
-        rec.log(
+        self._log(CAMERA, rr.Transform3D(translation=transform[:3, 3], mat3x3=transform[:3, :3]))
+        self._log(
             CAMERA_IMAGE,
             rr.Pinhole(
                 image_from_camera=k.matrix(),
@@ -351,24 +435,25 @@ class WorldLogger:
                 image_plane_distance=1.0,
             ),
         )
-        ok, jpeg = cv2.imencode(
-            ".jpg", np.ascontiguousarray(obs.rgb[..., ::-1]), [cv2.IMWRITE_JPEG_QUALITY, JPEG_QUALITY]
+        jpeg = io.BytesIO()
+        Image.fromarray(np.ascontiguousarray(obs.rgb, dtype=np.uint8)).save(
+            jpeg, format="JPEG", quality=JPEG_QUALITY
         )
-        if ok:
-            rec.log(CAMERA_RGB, rr.EncodedImage(contents=jpeg.tobytes(), media_type="image/jpeg"))
-        depth = np.nan_to_num(np.asarray(obs.depth_m, dtype=float), nan=0.0) * DEPTH_UNITS_PER_M
-        rec.log(
-            CAMERA_DEPTH, rr.DepthImage(np.clip(depth, 0, 65535).astype(np.uint16), meter=DEPTH_UNITS_PER_M)
-        )
+        self._log(CAMERA_RGB, rr.EncodedImage(contents=jpeg.getvalue(), media_type="image/jpeg"))
+        # In float32 and in place: one buffer the size of the image instead of five float64 ones.
+        depth = np.multiply(obs.depth_m, DEPTH_UNITS_PER_M, dtype=np.float32)
+        np.nan_to_num(depth, copy=False, nan=0.0)
+        np.clip(depth, 0, np.iinfo(np.uint16).max, out=depth)
+        self._log(CAMERA_DEPTH, rr.DepthImage(depth.astype(np.uint16), meter=DEPTH_UNITS_PER_M))
         # The models have not answered about this frame yet: what they said about the last one goes.
         for entity in (DETECTIONS, PROPOSALS, TARGET):
-            rec.log(entity, rr.Clear(recursive=False))
+            self._log(entity, rr.Clear(recursive=False))
 
     def _log_answer(self, answer: ModelAnswer) -> None:
-        rr, rec = self._rr, self.recording
+        rr = self._rr
         detections = answer.detections or ()
         if detections:
-            rec.log(
+            self._log(
                 DETECTIONS,
                 rr.Boxes2D(
                     array=np.array([d.box_xyxy_px for d in detections], dtype=float),
@@ -378,10 +463,10 @@ class WorldLogger:
                 ),
             )
         else:
-            rec.log(DETECTIONS, rr.Clear(recursive=False))
+            self._log(DETECTIONS, rr.Clear(recursive=False))
         proposals = answer.scene_evidence.proposals if answer.scene_evidence is not None else ()
         if proposals:
-            rec.log(
+            self._log(
                 PROPOSALS,
                 rr.Points2D(
                     [p.point_px for p in proposals],
@@ -394,15 +479,15 @@ class WorldLogger:
                 ),
             )
         else:
-            rec.log(PROPOSALS, rr.Clear(recursive=False))
+            self._log(PROPOSALS, rr.Clear(recursive=False))
 
     def _log_target(self, arbitration: Any) -> None:
         rr = self._rr
         winner = getattr(arbitration, "winner", None)
         if winner is None:
-            self.recording.log(TARGET, rr.Clear(recursive=False))
+            self._log(TARGET, rr.Clear(recursive=False))
             return
-        self.recording.log(
+        self._log(
             TARGET,
             rr.Points2D(
                 [winner.pixel_px],
@@ -413,7 +498,7 @@ class WorldLogger:
         )
 
     def _log_memory(self, memory: MemoryFrame) -> None:
-        rr, rec = self._rr, self.recording
+        rr = self._rr
         self._memory = memory
         nodes = memory.nodes
         if not nodes:
@@ -423,7 +508,7 @@ class WorldLogger:
         potential = np.array([n.potential for n in nodes], dtype=float)
         labels = [f"{n.node_id} {n.label}" for n in nodes]
         colours = potential_colours(potential)
-        rec.log(
+        self._log(
             MEMORY_NODES,
             rr.Points3D(positions, radii=confidence_radii(confidence), colors=colours, labels=labels),
             rr.AnyValues(
@@ -437,7 +522,7 @@ class WorldLogger:
         )
         where = {n.node_id: n.position_m for n in nodes}
         strips = [[where[u], where[v]] for u, v in memory.edges if u in where and v in where]
-        rec.log(
+        self._log(
             MEMORY_EDGES,
             rr.LineStrips3D(strips, colors=[EDGE_COLOUR], radii=[0.01])
             if strips
@@ -455,7 +540,7 @@ class WorldLogger:
         confidence = np.array([n.confidence for n in nodes], dtype=float)
         colours = potential_colours([n.potential for n in nodes])
         colours[[n.node_id == self._subgoal_id for n in nodes]] = SUBGOAL_COLOUR
-        self.recording.log(
+        self._log(
             MEMORY_GRAPH,
             rr.GraphNodes(
                 [str(n.node_id) for n in nodes],
@@ -468,16 +553,16 @@ class WorldLogger:
         )
 
     def _log_decision(self, entry: Mapping[str, Any]) -> None:
-        rr, rec = self._rr, self.recording
-        rec.log(
+        rr = self._rr
+        self._log(
             EXPLANATION,
             rr.TextDocument(explain_decision(entry, self.decision_config), media_type="text/markdown"),
         )
         candidates: Sequence[Mapping[str, Any]] = entry.get("candidates", ())
         if not candidates:
-            rec.log(CANDIDATES, rr.Clear(recursive=False))
+            self._log(CANDIDATES, rr.Clear(recursive=False))
             return
-        rec.log(
+        self._log(
             CANDIDATES,
             rr.Points3D(
                 [(c["position_m"][0], c["position_m"][1], c["position_m"][2] + 0.4) for c in candidates],
@@ -500,10 +585,10 @@ class WorldLogger:
         self._subgoal_id = None if subgoal is None else subgoal.node_id
         self._log_graph()
         if subgoal is None:
-            self.recording.log(SUBGOAL, rr.Clear(recursive=False))
+            self._log(SUBGOAL, rr.Clear(recursive=False))
             return
         x, y, z = subgoal.position_m
-        self.recording.log(
+        self._log(
             SUBGOAL,
             rr.Points3D(
                 [(x, y, z + 0.4)],
@@ -514,7 +599,8 @@ class WorldLogger:
         )
 
     def close(self) -> None:
-        """Flush everything to the sinks (the file is complete after this)."""
+        """Send the held rows and flush everything to the sinks (the file is complete after this)."""
+        self.flush()
         self.recording.flush(timeout_sec=30.0)
 
     def disconnect(self) -> None:
