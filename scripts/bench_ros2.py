@@ -40,7 +40,7 @@ ROOT = Path(__file__).resolve().parents[1]
 # in ROOT), not whichever checkout the environment's editable install points at.
 sys.path.insert(0, str(ROOT))
 
-from tests.ros2_support import MISSION, mission_with_budget  # noqa: E402
+from tests.ros2_support import MISSION, mission_with_budget, run_bridge_and_executive  # noqa: E402
 
 
 def _cli(*args: str) -> list[str]:
@@ -111,44 +111,12 @@ print(time.perf_counter() - t1)
 def over_ros2(mission: Path, scene: str, seed: int, out: Path) -> dict[str, Any]:
     """The same episode over ROS 2 in lockstep: bridge and executive as two processes."""
     bridge_json, exec_json = out / f"bridge_{scene}_{seed}.json", out / f"executive_{scene}_{seed}.json"
-    bridge = subprocess.Popen(
-        _cli(
-            "sim-bridge",
-            "--scene",
-            scene,
-            "--seed",
-            str(seed),
-            "--json",
-            str(bridge_json),
-            "--max-wall-s",
-            "900",
-        ),
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
-    )
-    try:
-        subprocess.run(
-            _cli(
-                "run",
-                str(mission),
-                "--backend",
-                "ros2",
-                "--seed",
-                str(seed),
-                "--relevance",
-                "lexical",
-                "--json",
-                str(exec_json),
-            ),
-            check=False,
-            capture_output=True,
-            timeout=900,
-        )
-        bridge.wait(timeout=30)
-    finally:
-        if bridge.poll() is None:
-            bridge.terminate()
-            bridge.wait(timeout=30)
+    run_bridge_and_executive(
+        _cli("sim-bridge", "--scene", scene, "--seed", str(seed), "--json", str(bridge_json), "--max-wall-s", "900"),
+        _cli("run", str(mission), "--backend", "ros2", "--seed", str(seed), "--relevance", "lexical",
+             "--json", str(exec_json)),
+        quiet=True,
+    )  # fmt: skip
     executive, scored = json.loads(exec_json.read_text()), json.loads(bridge_json.read_text())
     return {
         "outcome": executive["outcome"],

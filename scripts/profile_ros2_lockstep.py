@@ -19,7 +19,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
@@ -30,7 +29,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from tests.ros2_support import mission_with_budget  # noqa: E402
+from tests.ros2_support import mission_with_budget, run_bridge_and_executive  # noqa: E402
 
 #: What is timed on the executive's side, ``module:attribute`` (a class's method or a module's function):
 #: the robot calls of the tree, the backend's callbacks, rclpy's publish.
@@ -184,47 +183,12 @@ def main() -> int:
         out = Path(tmp)
         mission = mission_with_budget(out / "mission", args.budget_s)
         bridge_dump, exec_dump, exec_json = out / "bridge.json", out / "exec.json", out / "record.json"
-        bridge = subprocess.Popen(
-            _wrapped(
-                BRIDGE_CALLS,
-                bridge_dump,
-                "sim-bridge",
-                "--scene",
-                args.scene,
-                "--seed",
-                str(args.seed),
-                "--max-wall-s",
-                "900",
-            ),
-            cwd=ROOT,
-            stdout=subprocess.DEVNULL,
-        )
-        try:
-            subprocess.run(
-                _wrapped(
-                    EXECUTIVE_CALLS,
-                    exec_dump,
-                    "run",
-                    str(mission),
-                    "--backend",
-                    "ros2",
-                    "--seed",
-                    str(args.seed),
-                    "--relevance",
-                    "lexical",
-                    "--json",
-                    str(exec_json),
-                ),
-                cwd=ROOT,
-                check=False,
-                stdout=subprocess.DEVNULL,
-                timeout=900,
-            )
-            bridge.wait(timeout=60)
-        finally:
-            if bridge.poll() is None:
-                bridge.terminate()
-                bridge.wait(timeout=30)
+        run_bridge_and_executive(
+            _wrapped(BRIDGE_CALLS, bridge_dump, "sim-bridge", "--scene", args.scene, "--seed", str(args.seed),
+                     "--max-wall-s", "900"),
+            _wrapped(EXECUTIVE_CALLS, exec_dump, "run", str(mission), "--backend", "ros2", "--seed",
+                     str(args.seed), "--relevance", "lexical", "--json", str(exec_json)),
+        )  # fmt: skip
         record = json.loads(exec_json.read_text())
         ticks = record["ticks"]
         report = {

@@ -77,6 +77,35 @@ def mission_with_budget(folder: Path, budget_s: float) -> Path:
     return path
 
 
+def run_bridge_and_executive(
+    bridge_argv: Sequence[str],
+    executive_argv: Sequence[str],
+    *,
+    quiet: bool = False,
+    timeout_s: float = 900.0,
+) -> None:
+    """Start the bridge command, run the executive command to its end, then let the bridge end (it stops
+    with the mission), terminating it if it does not: the two-process run the ROS 2 scripts time
+    (``scripts/bench_ros2.py``, ``scripts/profile_ros2_lockstep.py``). Both run in ``ROOT``; standard
+    output is dropped, and with ``quiet`` their standard error too."""
+    errors = subprocess.DEVNULL if quiet else None
+    bridge = subprocess.Popen(list(bridge_argv), cwd=ROOT, stdout=subprocess.DEVNULL, stderr=errors)
+    try:
+        subprocess.run(
+            list(executive_argv),
+            cwd=ROOT,
+            check=False,
+            stdout=subprocess.DEVNULL,
+            stderr=errors,
+            timeout=timeout_s,
+        )
+        bridge.wait(timeout=60)
+    finally:
+        if bridge.poll() is None:
+            bridge.terminate()
+            bridge.wait(timeout=30)
+
+
 def semexp(args: Sequence[str], *, env: Mapping[str, str], log: Path) -> subprocess.Popen[bytes]:
     """Start ``semexp-bt ARGS`` with this interpreter (the ROS 2 environment), output to ``log``."""
     handle = open(log, "wb")

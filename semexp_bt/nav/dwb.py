@@ -109,7 +109,8 @@ class OscillationGuard:
         self._flip_pose: Pose2D | None = None
 
     def forbidden(self, pose: Pose2D, targets: FloatArray) -> npt.NDArray[np.bool_]:
-        """A ``(K,)`` mask of the ``(K, 2)`` (v, w) targets that would flip a direction back too soon."""
+        """A ``(K,)`` mask of the ``(K, 2)`` (v, w) targets that would flip a direction back too soon (a
+        guard the base has moved or turned past at ``pose`` is forgotten first)."""
         if self._flip_pose is not None:
             moved = math.hypot(pose.x_m - self._flip_pose.x_m, pose.y_m - self._flip_pose.y_m)
             turned = abs(math.remainder(pose.yaw_rad - self._flip_pose.yaw_rad, math.tau))
