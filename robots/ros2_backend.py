@@ -241,6 +241,11 @@ class Ros2Robot(Robot):
         }
         self._arrivals: dict[str, int] = collections.defaultdict(int)
         self._pairs_completed: collections.deque[tuple[int, float]] = collections.deque(maxlen=PAIR_LOG)
+        # The newest colour + depth pair, kept past FRAME_HISTORY: a colour stream that pauses for less
+        # than its deadline must not halt the mission once its last partner leaves the depth history.
+        self._last_pair: tuple[_Stamped, _Stamped, _Stamped | None] | None = (
+            None  # colour, depth, segmentation
+        )
         self._clock_ns: int | None = None
         self._sim_time_s: float | None = None
         self._halt: RobotHalted | None = None
@@ -406,8 +411,22 @@ class Ros2Robot(Robot):
             with self._lock:
                 entry = self._record(stream, stamp_to_ns(msg.header.stamp), msg)
                 self._frames[stream].append(entry)
-                if other is not None and any(f.stamp_ns == entry.stamp_ns for f in self._frames[other]):
+                partner = None
+                if other is not None:
+                    partner = next((f for f in self._frames[other] if f.stamp_ns == entry.stamp_ns), None)
+                if partner is not None:
                     self._pairs_completed.append((entry.stamp_ns, entry.arrived_s))
+                    color, depth = (entry, partner) if stream == "color_image" else (partner, entry)
+                    segmentation = next(
+                        (f for f in self._frames["segmentation"] if f.stamp_ns == color.stamp_ns), None
+                    )
+                    self._last_pair = (color, depth, segmentation)
+                elif (
+                    stream == "segmentation"
+                    and self._last_pair is not None
+                    and self._last_pair[0].stamp_ns == entry.stamp_ns
+                ):
+                    self._last_pair = (self._last_pair[0], self._last_pair[1], entry)
                 self._lock.notify_all()
 
         return callback
@@ -717,6 +736,16 @@ class Ros2Robot(Robot):
                     continue
             return color, depth, segmentation
         topic = self.profile.topics.color_image if need_color else self.profile.topics.depth_image
+        if need_color and not self.lockstep:
+            last_color = self._latest.get("color_image")
+            silent_s = math.inf if last_color is None else time.monotonic() - last_color.arrived_s
+            deadline = self.profile.deadline_of("color_image")
+            if silent_s > deadline:
+                self._halt_locked(
+                    topic, f"silent for {silent_s:.2f} s (deadline {deadline:.2f} s): robot stopped"
+                )
+            if self._last_pair is not None and (self._last_pair[2] is not None or not self.simulation):
+                return self._last_pair
         raise RobotHalted(topic, "no colour frame pairs with a depth frame by stamp")
 
     def _request_frame(self, request: CameraRequest) -> None:

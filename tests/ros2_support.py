@@ -146,6 +146,50 @@ def wait_for_bridge(log: Path, process: subprocess.Popen[bytes], *, timeout_s: f
         raise AssertionError(f"the bridge did not come up:\n{log.read_text()[-3000:]}")
 
 
+class CommandSpy:
+    """``tests/ros2_spy.py`` started as a process of its own on ``env``'s domain; reads its log back.
+
+    ``commands`` are ``(steady time, vx, wz)`` of each ``/cmd_vel`` message, ``speeds`` ``(steady time,
+    |v| + |w|)`` of each ``/odom`` one, both as received so far.
+    """
+
+    def __init__(self, env: Mapping[str, str], log: Path, *, timeout_s: float = 60.0) -> None:
+        self.log = log
+        log.write_text("")
+        self.process = subprocess.Popen(
+            [sys.executable, "-m", "tests.ros2_spy", str(log)],
+            cwd=ROOT,
+            env=dict(env),
+            stderr=open(log.with_suffix(".err"), "wb"),
+        )
+        if not wait_for(
+            lambda: self._lines()[:1] == ["ready"] or self.process.poll() is not None, timeout_s=timeout_s
+        ):
+            raise AssertionError(f"the command spy did not come up: {log.with_suffix('.err').read_text()}")
+        if self.process.poll() is not None:
+            raise AssertionError(f"the command spy ended: {log.with_suffix('.err').read_text()}")
+
+    def _lines(self) -> list[str]:
+        text = self.log.read_text()
+        return text.split("\n")[: text.count("\n")]  # complete lines only: the spy may be mid-line
+
+    @property
+    def commands(self) -> list[tuple[float, float, float]]:
+        rows = [line.split() for line in self._lines() if line.startswith("cmd ")]
+        return [(float(t), float(vx), float(wz)) for _, t, vx, wz in rows]
+
+    @property
+    def speeds(self) -> list[tuple[float, float]]:
+        rows = [line.split() for line in self._lines() if line.startswith("odom ")]
+        return [(float(t), float(speed)) for _, t, speed in rows]
+
+    def moving_command_seen(self) -> bool:
+        return any(abs(vx) + abs(wz) > 1e-3 for _, vx, wz in self.commands)
+
+    def close(self) -> None:
+        stop(self.process, timeout_s=10.0)
+
+
 def wait_for(predicate: object, *, timeout_s: float, period_s: float = 0.05) -> bool:
     """Poll ``predicate()`` until it is true or ``timeout_s`` passes."""
     deadline = time.monotonic() + timeout_s

@@ -33,7 +33,6 @@ import math
 import signal
 import subprocess
 import sys
-import threading
 import time
 from pathlib import Path
 from typing import Any
@@ -45,8 +44,8 @@ pytest.importorskip("rclpy", reason="the ROS 2 environment (make ros2-env) provi
 from tests.ros2_support import (
     MISSION,
     ROOT,
+    CommandSpy,
     fresh_domain_id,
-    isolate_this_process,
     isolated_env,
     mission_with_budget,
     semexp,
@@ -196,55 +195,6 @@ def test_the_mission_over_ros2_has_the_in_process_outcome(tmp_path: Path, scene:
     assert math.isclose(bridge["path_length_m"], in_process["path_length_m"], abs_tol=1e-6)
 
 
-class _CommandSpy:
-    """Listens to /cmd_vel and /odom from this process (as a driver's log would)."""
-
-    def __init__(self, domain: int) -> None:
-        isolate_this_process(domain)
-        import rclpy
-        from geometry_msgs.msg import Twist
-        from nav_msgs.msg import Odometry
-        from rclpy.executors import SingleThreadedExecutor
-        from rclpy.qos import QoSProfile, ReliabilityPolicy
-
-        from robots.ros2_backend import ros_context
-
-        self.context = ros_context(rclpy)
-        self.node = rclpy.create_node("test_spy", context=self.context, start_parameter_services=False)
-        self.commands: list[tuple[float, float, float]] = []  # (steady time, vx, wz)
-        self.speeds: list[tuple[float, float]] = []  # (steady time, |v| from odometry)
-        best_effort = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)
-        self.node.create_subscription(
-            Twist,
-            "/cmd_vel",
-            lambda m: self.commands.append((time.monotonic(), m.linear.x, m.angular.z)),
-            best_effort,
-        )
-        self.node.create_subscription(
-            Odometry,
-            "/odom",
-            lambda m: self.speeds.append(
-                (
-                    time.monotonic(),
-                    math.hypot(m.twist.twist.linear.x, m.twist.twist.linear.y) + abs(m.twist.twist.angular.z),
-                )
-            ),
-            best_effort,
-        )
-        self.executor = SingleThreadedExecutor(context=self.context)
-        self.executor.add_node(self.node)
-        self.thread = threading.Thread(target=self.executor.spin, daemon=True)
-        self.thread.start()
-
-    def moving_command_seen(self) -> bool:
-        return any(abs(vx) + abs(wz) > 1e-3 for _, vx, wz in self.commands)
-
-    def close(self) -> None:
-        self.executor.shutdown(timeout_sec=1.0)
-        self.thread.join(timeout=2.0)
-        self.context.try_shutdown()
-
-
 def _profile(tmp_path: Path, **deadlines: float) -> Path:
     """A robot profile whose deadlines are generous but for the ones given (a loaded CI machine must not
     trip another stream first)."""
@@ -279,7 +229,7 @@ def test_a_silent_camera_zeroes_the_twist_and_halts_the_mission_naming_it(tmp_pa
         log=tmp_path / "bridge.log",
     )
     wait_for_bridge(tmp_path / "bridge.log", bridge)
-    spy = _CommandSpy(domain)
+    spy = CommandSpy(env, tmp_path / "spy.log")
     try:
         executive = semexp(
             [
@@ -329,7 +279,7 @@ def test_the_executive_stops_commanding_and_exits_within_2_s_when_the_bridge_die
         log=tmp_path / "bridge.log",
     )
     wait_for_bridge(tmp_path / "bridge.log", bridge)
-    spy = _CommandSpy(domain)
+    spy = CommandSpy(env, tmp_path / "spy.log")
     try:
         executive = semexp(
             ["run", str(MISSION), "--backend", "ros2", "--seed", "9", "--relevance", "lexical"],
@@ -376,7 +326,7 @@ def test_the_bridge_stops_the_robot_within_half_a_second_when_the_executive_dies
         log=tmp_path / "bridge.log",
     )
     wait_for_bridge(tmp_path / "bridge.log", bridge)
-    spy = _CommandSpy(domain)
+    spy = CommandSpy(env, tmp_path / "spy.log")
     try:
         executive = semexp(
             ["run", str(MISSION), "--backend", "ros2", "--seed", "9", "--relevance", "lexical"],
