@@ -129,13 +129,15 @@ class GeodesicOracle:
         return ("point", round(gx / quarter), round(gy / quarter), float(goal_radius_m))
 
     def object_goal_mask(self, object_id: int, *, success_radius_m: float) -> npt.NDArray[np.bool_]:
-        """Free cells whose centre is within ``success_radius_m`` of the object's footprint."""
+        """Free cells whose centre is within ``success_radius_m`` of the object's whole footprint (its
+        main geom and every part, overhead ones included: the region SR's ``boundary_distance_m`` measures
+        to)."""
         require_finite("success_radius_m", success_radius_m)
         if success_radius_m < 0.0:
             raise InvalidInputError(f"success_radius_m must be >= 0, got {success_radius_m}")
         obj = self.scene.object_by_id(object_id)
-        footprint = rasterise_object(obj, self.occupancy.geometry)
-        if not footprint.any():  # an object smaller than a cell, or overhead only: use its centre cell
+        footprint = rasterise_object(obj, self.occupancy.geometry, whole=True)
+        if not footprint.any():  # an object smaller than a cell: use its centre cell
             cell = self.occupancy.geometry.cell_of(obj.position_m)
             if self.occupancy.geometry.contains(cell):
                 footprint[cell] = True
@@ -185,7 +187,7 @@ class GeodesicOracle:
         require_finite("xy", xy)
         obj = self.scene.object_by_id(object_id)
         geometry = self.occupancy.geometry
-        rows, cols = np.nonzero(rasterise_object(obj, geometry))
+        rows, cols = np.nonzero(rasterise_object(obj, geometry, whole=True))
         if rows.size == 0:
             return (float(obj.position_m[0]), float(obj.position_m[1]))
         centres = geometry.centre_of(rows, cols)

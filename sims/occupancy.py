@@ -22,7 +22,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy import ndimage
 
-from semexp_bt.core.scene import SceneObject, SceneSpec
+from semexp_bt.core.scene import PlanarGeom, SceneObject, SceneSpec
 from semexp_bt.core.types import InvalidInputError, require_finite
 from sims.robot_footprint import ROBOT_CLEARANCE_HEIGHT_M, ROBOT_RADIUS_M
 
@@ -81,31 +81,17 @@ class GridGeometry:
         return np.stack([x, y], axis=-1)
 
 
-def footprint_geoms(obj: SceneObject) -> list[tuple[str, float, float, float, float, float]]:
-    """The planar geoms that block the robot: ``(shape, cx, cy, yaw, half_x, half_y)`` in ``map``.
-
-    Cylinders use ``half_x`` as radius. Geoms that start at or above the clearance height are skipped.
-    """
-    x, y, z = obj.position_m
-    cos_y, sin_y = math.cos(obj.yaw_rad), math.sin(obj.yaw_rad)
-    geoms: list[tuple[str, float, float, float, float, float]] = []
-    if z - obj.size_m[2] < ROBOT_CLEARANCE_HEIGHT_M:
-        geoms.append((obj.shape, x, y, obj.yaw_rad, obj.size_m[0], obj.size_m[1]))
-    for part in obj.parts:
-        shape, dx, dy, dz, sx, sy, sz = part[:7]
-        if z + float(dz) - float(sz) >= ROBOT_CLEARANCE_HEIGHT_M:  # type: ignore[arg-type]
-            continue
-        px = x + cos_y * float(dx) - sin_y * float(dy)  # type: ignore[arg-type]
-        py = y + sin_y * float(dx) + cos_y * float(dy)  # type: ignore[arg-type]
-        geoms.append((str(shape), px, py, obj.yaw_rad, float(sx), float(sy)))  # type: ignore[arg-type]
-    return geoms
+def footprint_geoms(obj: SceneObject) -> list[PlanarGeom]:
+    """The planar geoms that block the robot (``SceneObject.planar_geoms`` below the clearance height)."""
+    return obj.planar_geoms(below_height_m=ROBOT_CLEARANCE_HEIGHT_M)
 
 
-def rasterise_object(obj: SceneObject, grid: GridGeometry) -> BoolGrid:
-    """Cells whose centre lies within half a cell of ``obj``'s blocking footprint (ignores ``is_obstacle``)."""
+def rasterise_object(obj: SceneObject, grid: GridGeometry, *, whole: bool = False) -> BoolGrid:
+    """Cells whose centre lies within half a cell of ``obj``'s blocking footprint (ignores ``is_obstacle``);
+    ``whole``: of its whole footprint, overhead geoms included (the success region's base)."""
     mask = np.zeros(grid.shape, dtype=bool)
     margin = 0.5 * grid.resolution_m
-    for shape, cx, cy, yaw, hx, hy in footprint_geoms(obj):
+    for shape, cx, cy, yaw, hx, hy in obj.planar_geoms() if whole else footprint_geoms(obj):
         reach = math.hypot(hx, hy) + margin
         r0, c0 = grid.cell_of((cx - reach, cy - reach))
         r1, c1 = grid.cell_of((cx + reach, cy + reach))

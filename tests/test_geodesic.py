@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from semexp_bt.core.geometry import wrap_angle
 from semexp_bt.core.scene import SceneObject, SceneSpec
 from semexp_bt.core.types import InvalidInputError
-from sims.catalogue import build_scene
+from sims.catalogue import build_scene, list_scenes
 from sims.geodesic import GeodesicOracle
 from sims.occupancy import OccupancyGrid
 from sims.robot_footprint import ROBOT_RADIUS_M
@@ -145,6 +145,43 @@ def test_distance_to_object_is_measured_to_the_success_region() -> None:
     assert nearest[0] == pytest.approx(4.5, abs=RES) and nearest[1] == pytest.approx(4.0, abs=RES)
     path = oracle.path_to_object((1.0, 4.0), 0, success_radius_m=1.0)
     assert np.allclose(path[0], (1.0, 4.0)) and path[-1][0] == pytest.approx(3.5, abs=2 * RES)
+
+
+def test_an_overhead_part_counts_for_the_success_region_and_not_for_the_obstacles() -> None:
+    # A 0.2 m post at (5, 4) under a 2 x 0.4 m sign board 1.5 m up, reaching 0.9 m towards +x: the board
+    # blocks nothing, but a robot 1 m from its tip is 1 m from the object (SR and L* alike).
+    sign = SceneObject(
+        0,
+        "sign",
+        "sign",
+        "sign",
+        "box",
+        (5.0, 4.0, 0.8),
+        (0.1, 0.1, 0.8),
+        parts=(("box", 0.9, 0.0, 0.8, 1.0, 0.2, 0.05),),
+    )
+    oracle = GeodesicOracle(room(sign), resolution_m=RES)
+    assert oracle.is_free((6.5, 4.0))  # under the board
+    assert sign.boundary_distance_m((7.9, 4.0)) == pytest.approx(1.0)
+    mask = oracle.object_goal_mask(0, success_radius_m=1.0)
+    geometry = oracle.occupancy.geometry
+    assert mask[geometry.cell_of((7.85, 4.0))] and not mask[geometry.cell_of((8.05, 4.0))]
+
+
+@pytest.mark.parametrize("name", list_scenes())
+def test_sr_and_l_star_measure_to_the_same_success_region(name: str) -> None:
+    # The scorer's test (boundary_distance_m <= r_s) and the oracle's goal cells agree on every free cell
+    # but those within a cell of the region's edge (the grid's own rounding).
+    scene = build_scene(name, seed=0)
+    oracle = GeodesicOracle(scene)
+    mask = oracle.object_goal_mask(scene.goal_object_id, success_radius_m=1.0)
+    geometry = oracle.occupancy.geometry
+    rows, cols = np.nonzero(oracle.occupancy.free)
+    centres = geometry.centre_of(rows, cols)
+    distance = np.array([scene.goal.boundary_distance_m((float(x), float(y))) for x, y in centres])
+    clear = np.abs(distance - 1.0) > 1.5 * geometry.resolution_m
+    print(name, "goal cells", int(mask.sum()), "cells compared", int(clear.sum()))
+    assert np.array_equal(mask[rows, cols][clear], distance[clear] <= 1.0)
 
 
 def test_unreachable_and_blocked_queries_are_infinite() -> None:

@@ -47,7 +47,7 @@ from semexp_bt.app.runner import (
 )
 from semexp_bt.app.strategies import Strategy, resolve_strategy
 from semexp_bt.core.metrics import DEFAULT_CLEARANCE_M, DEFAULT_SUCCESS_RADIUS_M
-from semexp_bt.core.scene import SceneObject, SceneSpec
+from semexp_bt.core.scene import SceneSpec
 from sims.catalogue import build_scene
 from sims.episode_scoring import score_episode, snap_to_free
 from sims.episodes import Episode, sample_episode
@@ -276,7 +276,7 @@ def privileged_navigation(
     goal_id = scene.goal.object_id
     path = oracle.path_to_object((start.x_m, start.y_m), goal_id, success_radius_m=success_radius_m)
     standpoint = (float(path[-1][0]), float(path[-1][1])) if len(path) else knowledge.goal_xy
-    goal_point = nearest_point_on_main_shape(scene.goal, standpoint)
+    goal_point = scene.goal.nearest_point_m(standpoint)
     geometry = oracle.occupancy.geometry
     border = PRIVILEGED_MAP_BORDER_CELLS
     occupied = np.pad(oracle.occupancy.occupied, border, constant_values=True)
@@ -290,20 +290,6 @@ def privileged_navigation(
         standpoint_xy=standpoint,
         occupancy=(occupied, lower_left, geometry.resolution_m),
     )
-
-
-def nearest_point_on_main_shape(obj: SceneObject, xy: tuple[float, float]) -> tuple[float, float]:
-    """The point of the object's main box or cylinder nearest ``xy`` (SR measures to that shape:
-    ``SceneObject.boundary_distance_m``)."""
-    dx, dy = xy[0] - obj.position_m[0], xy[1] - obj.position_m[1]
-    if obj.shape == "cylinder":
-        norm = math.hypot(dx, dy)
-        scale = min(1.0, obj.size_m[0] / norm) if norm > 0 else 0.0
-        return (obj.position_m[0] + dx * scale, obj.position_m[1] + dy * scale)
-    c, s = math.cos(obj.yaw_rad), math.sin(obj.yaw_rad)
-    lx = max(-obj.size_m[0], min(obj.size_m[0], c * dx + s * dy))
-    ly = max(-obj.size_m[1], min(obj.size_m[1], -s * dx + c * dy))
-    return (obj.position_m[0] + c * lx - s * ly, obj.position_m[1] + s * lx + c * ly)
 
 
 def subsample_path(positions: list[np.ndarray], *, step_m: float) -> list[list[float]]:

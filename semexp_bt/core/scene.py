@@ -15,6 +15,9 @@ from dataclasses import dataclass, field
 from typing import Literal
 
 Shape = Literal["box", "cylinder"]
+#: One geom of an object seen from above: ``(shape, cx, cy, yaw, half_x, half_y)`` in ``map``; a
+#: cylinder's radius is ``half_x``.
+PlanarGeom = tuple[str, float, float, float, float, float]
 
 
 @dataclass(frozen=True)
@@ -64,20 +67,66 @@ class SceneObject:
         """Every name that names the object: its label, its category and its aliases."""
         return tuple(dict.fromkeys((self.label, self.category, *self.aliases)))
 
+    def planar_geoms(self, *, below_height_m: float | None = None) -> list[PlanarGeom]:
+        """The object's main geom and parts projected on the floor, in ``map``.
+
+        Args:
+            below_height_m: keep only the geoms whose bottom is below this height (what blocks a body
+                that tall); None keeps every geom: the object's whole footprint, the region its success
+                radius is measured from (SR, L*, the drawn goal zone).
+
+        Example:
+            >>> table = SceneObject(0, "t", "table", "table", "box", (0.0, 0.0, 0.7), (0.6, 0.4, 0.02),
+            ...                     parts=(("box", 0.5, 0.3, -0.35, 0.03, 0.03, 0.35),))
+            >>> [g[1:3] for g in table.planar_geoms()], [g[1:3] for g in table.planar_geoms(below_height_m=0.5)]
+            ([(0.0, 0.0), (0.5, 0.3)], [(0.5, 0.3)])
+        """
+        x, y, z = self.position_m
+        cos_y, sin_y = math.cos(self.yaw_rad), math.sin(self.yaw_rad)
+        geoms: list[PlanarGeom] = []
+        if below_height_m is None or z - self.size_m[2] < below_height_m:
+            geoms.append((self.shape, x, y, self.yaw_rad, self.size_m[0], self.size_m[1]))
+        for part in self.parts:
+            shape, dx, dy, dz, sx, sy, sz = (str(part[0]), *(float(v) for v in part[1:7]))  # type: ignore[arg-type]
+            if below_height_m is not None and z + dz - sz >= below_height_m:
+                continue
+            px = x + cos_y * dx - sin_y * dy
+            py = y + sin_y * dx + cos_y * dy
+            geoms.append((shape, px, py, self.yaw_rad, sx, sy))
+        return geoms
+
     def boundary_distance_m(self, xy: tuple[float, float]) -> float:
-        """2D distance from ``xy`` to the object's footprint (0 inside it).
+        """2D distance from ``xy`` to the object's whole footprint (:meth:`planar_geoms`; 0 inside it).
 
         Example:
             >>> SceneObject(0, "b", "box", "box", "box", (0.0, 0.0, 0.5), (1.0, 0.5, 0.5)).boundary_distance_m((3.0, 0.0))
             2.0
         """
-        dx, dy = xy[0] - self.position_m[0], xy[1] - self.position_m[1]
-        if self.shape == "cylinder":
-            return max(0.0, math.hypot(dx, dy) - self.size_m[0])
-        c, s = math.cos(self.yaw_rad), math.sin(self.yaw_rad)
-        lx, ly = c * dx + s * dy, -s * dx + c * dy
-        ex, ey = max(abs(lx) - self.size_m[0], 0.0), max(abs(ly) - self.size_m[1], 0.0)
-        return math.hypot(ex, ey)
+        near = self.nearest_point_m(xy)
+        return math.hypot(xy[0] - near[0], xy[1] - near[1])
+
+    def nearest_point_m(self, xy: tuple[float, float]) -> tuple[float, float]:
+        """The point of the object's whole footprint nearest ``xy`` (``xy`` itself inside it).
+
+        Example:
+            >>> SceneObject(0, "b", "box", "box", "box", (0.0, 0.0, 0.5), (1.0, 0.5, 0.5)).nearest_point_m((3.0, 2.0))
+            (1.0, 0.5)
+        """
+        points = [_nearest_point_of_geom(geom, xy) for geom in self.planar_geoms()]
+        return min(points, key=lambda p: math.hypot(xy[0] - p[0], xy[1] - p[1]))
+
+
+def _nearest_point_of_geom(geom: PlanarGeom, xy: tuple[float, float]) -> tuple[float, float]:
+    shape, cx, cy, yaw, hx, hy = geom
+    dx, dy = xy[0] - cx, xy[1] - cy
+    if shape == "cylinder":
+        norm = math.hypot(dx, dy)
+        scale = min(1.0, hx / norm) if norm > 0 else 0.0
+        return (cx + dx * scale, cy + dy * scale)
+    c, s = math.cos(yaw), math.sin(yaw)
+    lx = max(-hx, min(hx, c * dx + s * dy))
+    ly = max(-hy, min(hy, -s * dx + c * dy))
+    return (cx + c * lx - s * ly, cy + s * lx + c * ly)
 
 
 @dataclass(frozen=True)
