@@ -77,8 +77,9 @@ DIFFERENCES = """\
   detector-like and VLM-like evidence with a configured noise model, calibrated against the paper's
   single-source rows of Table I. Table I therefore measures our arbitration against *emulated* sources;
   it says nothing about real Qwen or GroundingDINO.
-- **GPT-4 is replaced** by the offline relevance scorer (MiniLM sentence embeddings, or the lexical scorer
-  where stated) for the "LLM relevance" row of Table II.
+- **GPT-4 is replaced** by the offline relevance scorer named in the header (`hybrid`: MiniLM sentence
+  embeddings or the object lexicon, the larger; `embedding`: MiniLM alone; `lexical`: words alone) for the
+  "LLM relevance" row of Table II.
 - **VLFM and HOV-SG are re-implemented decision rules** (`semexp_bt/core/decision_baselines.py`,
   `semexp_bt/app/strategies.yaml`), not the published systems: VLFM-style = value without travel cost;
   HOV-SG-style = best region by mean relevance, then best node, regions being 3 m grid cells.

@@ -58,8 +58,9 @@ def _add_sweep_options(parser: argparse.ArgumentParser) -> None:
         "--relevance",
         choices=sorted(RELEVANCE_SCORERS),
         default=None,
-        help="relevance scorer (semexp_bt/app/components.py): embedding (offline MiniLM, the default), "
-        "hybrid (MiniLM or the object lexicon, the larger) or lexical (no torch; the default with --smoke)",
+        help=f"relevance scorer (semexp_bt/app/components.py; default {DEFAULT_RELEVANCE}): embedding "
+        "(offline MiniLM), hybrid (MiniLM or the object lexicon, the larger) or lexical (no torch; the "
+        "default with --smoke)",
     )
     parser.add_argument(
         "--workers",
