@@ -15,8 +15,11 @@ $(STAMP): pyproject.toml scripts/setup.sh
 
 setup: $(STAMP)
 
+# A mission that runs to an outcome is a finished demo, found or not (`semexp-bt run` exits 1 when the robot
+# did not find the object; its one-line summary says so); an error (2) or a halted robot (3) fails make.
 mission: $(STAMP)
-	MUJOCO_GL=egl $(BIN)/semexp-bt run trees/object_search.yaml --scene road --seed 0 --relevance lexical --json runs/road-0.json
+	MUJOCO_GL=egl $(BIN)/semexp-bt run trees/object_search.yaml --scene road --seed 0 --json runs/road-0.json; \
+	status=$$?; [ $$status -le 1 ] || exit $$status
 
 $(ROS2_STAMP): $(STAMP) pyproject.toml scripts/setup_ros2.sh
 	bash scripts/setup_ros2.sh
