@@ -182,8 +182,8 @@ class GeodesicOracle:
         return self._path_from(a_xy, field, predecessors, end_xy=None)
 
     def nearest_point_on_object(self, xy: npt.ArrayLike, object_id: int) -> tuple[float, float]:
-        """The centre of the object's footprint cell nearest to ``xy``: the goal point G for which
-        ``||P - G|| < r_s`` (SR) and L* (this oracle) describe the same success region."""
+        """The centre of the object's whole-footprint cell nearest to ``xy``: this grid's version of
+        ``SceneObject.nearest_point_m`` (exact; what SR's ``boundary_distance_m`` measures to)."""
         require_finite("xy", xy)
         obj = self.scene.object_by_id(object_id)
         geometry = self.occupancy.geometry

@@ -23,6 +23,8 @@ from sims.scripted_chat_server import ScriptedChatServer, ScriptedReply, scripte
 ROOT = Path(__file__).resolve().parents[1]
 TREES = ROOT / "trees"
 SCRIPTED_LABELS = {"open corridor", "unexplored area on the left"}
+#: One numbered label of a relevance prompt (`1. "open corridor"`).
+NUMBERED_LABEL = re.compile(r'^\d+\. "([^"]*)"', re.MULTILINE)
 
 
 @pytest.fixture()
@@ -72,11 +74,7 @@ def test_a_mujoco_mission_runs_on_the_models_against_the_scripted_server(
     # node survives to a decision's candidates depends on where the start puts it (it may merge into a
     # depth frontier's "unexplored area" node), so the test asks the relevance prompts, not the candidates.
     assert record["decisions"], "the robot should have decided where to go"
-    asked = {
-        m.group(1)
-        for r in relevance_requests
-        for m in re.finditer(r'^\d+\. "([^"]*)"', r.text(), re.MULTILINE)
-    }
+    asked = {label for r in relevance_requests for label in NUMBERED_LABEL.findall(r.text())}
     assert SCRIPTED_LABELS <= asked, asked
 
     # The record says what the models cost: calls, failures, latency, the relevance cache's counters.
@@ -84,8 +82,7 @@ def test_a_mujoco_mission_runs_on_the_models_against_the_scripted_server(
     assert models["calls"]["vlm"]["calls"] == len(scene_requests) and models["calls"]["vlm"]["failures"] == 0
     assert models["calls"]["vlm"]["latency_s"]["median"] > 0.0
     relevance = models["relevance"]
-    numbered = re.compile(r'^\d+\. "', re.MULTILINE)
-    assert relevance["asked"] == sum(len(numbered.findall(r.text())) for r in relevance_requests)
+    assert relevance["asked"] == sum(len(NUMBERED_LABEL.findall(r.text())) for r in relevance_requests)
     assert relevance["lookups"] >= relevance["asked"] > 0 and relevance["fallbacks"] == 0
 
 
