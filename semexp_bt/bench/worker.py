@@ -20,6 +20,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
+from semexp_bt.app.process_heap import keep_freed_memory
 from semexp_bt.bench.rows import STATUS_ERROR, STATUS_TIMEOUT, failure_row, finished_row, keyed_row
 from semexp_bt.bench.sweep import EpisodeTask, RunFunction
 
@@ -47,6 +48,7 @@ def prepare_worker() -> None:
     """
     os.environ.setdefault("MUJOCO_GL", "egl")
     limit_native_threads()
+    keep_freed_memory()
     # Model-loading progress bars would interleave with the sweep's own progress lines.
     for var, value in (
         ("TQDM_DISABLE", "1"),

@@ -14,6 +14,7 @@ import importlib
 import sys
 from collections.abc import Sequence
 
+from semexp_bt.app.process_heap import keep_freed_memory
 from semexp_bt.cli.arguments import OneLineArgumentParser
 
 #: subcommand -> (module, one-line help). Modules are listed once, here.
@@ -56,6 +57,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.parse_args(argv)  # prints help or the usage error and exits
         return 2
     name = argv[0]
+    keep_freed_memory()
     module = importlib.import_module(COMMANDS[name][0])
     # Usage errors are one line and exit status 2 (semexp_bt.cli.arguments), in every subcommand.
     sub_parser = OneLineArgumentParser(prog=f"semexp-bt {name}", description=COMMANDS[name][1])

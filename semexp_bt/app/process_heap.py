@@ -1,0 +1,56 @@
+"""The C heap's settings for a mission process: keep freed memory instead of handing it back at once.
+
+Why: the navigation stack's hot loops (the controller's footprint checks, ``Costmap.distance_at`` over
+some 15,000 sampled points a call) allocate and free numpy temporaries of 100-250 KB many times a
+second. glibc's ``malloc`` serves blocks above its mmap threshold (128 KB at start, raised dynamically)
+with fresh ``mmap`` pages and gives the top of the heap back to the kernel whenever more than the trim
+threshold is free there, so whether such a loop page-faults on every temporary depends on where
+long-lived objects happen to sit on the heap. Measured (docs/ros2.md, "The C heap"): the same controller
+calls cost 2.6x more CPU in the ROS 2 executive's process than in the in-process run of the same episode
+(1,000 vs 390 us a ``distance_at`` call), all of it minor page faults; with these settings both cost
+the same.
+
+:func:`keep_freed_memory` fixes the two thresholds (``mallopt``), which also turns glibc's dynamic
+adjustment off: blocks up to :data:`MMAP_THRESHOLD_BYTES` come from the heap, and the heap's top is
+trimmed only past :data:`TRIM_THRESHOLD_BYTES` free. The cost is resident memory the process has freed
+but not returned, at most about the trim threshold. On a C library without ``mallopt`` (musl, macOS) it
+does nothing.
+
+Example:
+    >>> keep_freed_memory() in (True, False)
+    True
+"""
+
+from __future__ import annotations
+
+import ctypes
+import ctypes.util
+import functools
+
+#: glibc's ``mallopt`` parameter numbers (malloc.h).
+_M_TRIM_THRESHOLD = -1
+_M_MMAP_THRESHOLD = -3
+#: Blocks up to this size come from the heap (glibc's own upper bound for its dynamic threshold, 64-bit).
+MMAP_THRESHOLD_BYTES = 32 * 1024 * 1024
+#: Free memory at the heap's top is returned to the kernel only beyond this.
+TRIM_THRESHOLD_BYTES = 128 * 1024 * 1024
+
+
+@functools.cache
+def keep_freed_memory() -> bool:
+    """Set the heap's mmap and trim thresholds for this process (once); whether the C library took them."""
+    name = ctypes.util.find_library("c")
+    if name is None:
+        return False
+    try:
+        mallopt = ctypes.CDLL(name).mallopt
+    except (OSError, AttributeError):
+        return False
+    mallopt.argtypes = (ctypes.c_int, ctypes.c_int)
+    mallopt.restype = ctypes.c_int
+    return bool(mallopt(_M_MMAP_THRESHOLD, MMAP_THRESHOLD_BYTES)) and bool(
+        mallopt(_M_TRIM_THRESHOLD, TRIM_THRESHOLD_BYTES)
+    )
+
+
+__all__ = ["MMAP_THRESHOLD_BYTES", "TRIM_THRESHOLD_BYTES", "keep_freed_memory"]
