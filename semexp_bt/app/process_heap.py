@@ -26,6 +26,7 @@ from __future__ import annotations
 import ctypes
 import ctypes.util
 import functools
+from typing import Any
 
 #: glibc's ``mallopt`` parameter numbers (malloc.h).
 _M_TRIM_THRESHOLD = -1
@@ -36,15 +37,22 @@ MMAP_THRESHOLD_BYTES = 32 * 1024 * 1024
 TRIM_THRESHOLD_BYTES = 128 * 1024 * 1024
 
 
+def _c_function(name: str) -> Any:
+    """The C library's function ``name``, or None where there is no such library or function."""
+    library = ctypes.util.find_library("c")
+    if library is None:
+        return None
+    try:
+        return getattr(ctypes.CDLL(library), name)
+    except (OSError, AttributeError):
+        return None
+
+
 @functools.cache
 def keep_freed_memory() -> bool:
     """Set the heap's mmap and trim thresholds for this process (once); whether the C library took them."""
-    name = ctypes.util.find_library("c")
-    if name is None:
-        return False
-    try:
-        mallopt = ctypes.CDLL(name).mallopt
-    except (OSError, AttributeError):
+    mallopt = _c_function("mallopt")
+    if mallopt is None:
         return False
     mallopt.argtypes = (ctypes.c_int, ctypes.c_int)
     mallopt.restype = ctypes.c_int
@@ -53,4 +61,19 @@ def keep_freed_memory() -> bool:
     )
 
 
-__all__ = ["MMAP_THRESHOLD_BYTES", "TRIM_THRESHOLD_BYTES", "keep_freed_memory"]
+def release_free_heap() -> bool:
+    """Hand the C allocator's free pages back to the OS (glibc ``malloc_trim``; False where there is none).
+
+    A mission frees its scene, its maps and its MuJoCo model when it ends, but glibc keeps the freed
+    pages of its arenas for reuse (the more so with :func:`keep_freed_memory`), so a large scene's peak
+    stays resident after it. A process that runs missions back to back calls this between them; what is
+    resident after it is what is still in use.
+    """
+    trim = _c_function("malloc_trim")
+    if trim is None:
+        return False
+    trim(0)
+    return True
+
+
+__all__ = ["MMAP_THRESHOLD_BYTES", "TRIM_THRESHOLD_BYTES", "keep_freed_memory", "release_free_heap"]

@@ -3,7 +3,7 @@
 A robot that runs all day runs its missions in one process. The soak runs simulated episodes
 (``semexp_bt.app.episode.run_episode``, MuJoCo, the emulator, the embedding scorer) one after another,
 cycling through :data:`DEFAULT_SCENES` with rising seeds, until :data:`DEFAULT_SIM_S` of robot time
-have passed. After each mission (a garbage collection, then :func:`release_free_heap`) it records the
+have passed. After each mission (a garbage collection, then :func:`~semexp_bt.app.process_heap.release_free_heap`) it records the
 process's resident memory (and what it was before the trim), the topological memory's size at the
 mission's end, the mission's tick median and p99, the py_trees blackboard's size and the live objects of
 the kinds a leak would pile up (:func:`watched_types`).
@@ -34,6 +34,7 @@ from typing import Any, TextIO
 import py_trees
 
 from semexp_bt.app.components import DEFAULT_RELEVANCE
+from semexp_bt.app.process_heap import release_free_heap
 from semexp_bt.app.runner import MissionRun
 
 DEFAULT_SCENES = ("office", "living_room", "laboratory")
@@ -52,27 +53,6 @@ def resident_bytes() -> int:
     except (OSError, IndexError, ValueError):
         return 0
     return pages * os.sysconf("SC_PAGE_SIZE")
-
-
-def release_free_heap() -> bool:
-    """Hand the C allocator's free pages back to the OS (glibc ``malloc_trim``; False where there is none).
-
-    A mission frees its scene, its maps and its MuJoCo model when it ends, but glibc keeps the freed
-    pages of its arenas for reuse, so a large scene's peak stays resident after it. A process that runs
-    missions back to back calls this between them; what is resident after it is what is still in use.
-    """
-    import ctypes
-    import ctypes.util
-
-    name = ctypes.util.find_library("c")
-    if name is None:
-        return False
-    try:
-        trim = ctypes.CDLL(name).malloc_trim
-    except (OSError, AttributeError):
-        return False
-    trim(0)
-    return True
 
 
 def watched_types() -> dict[str, type]:
