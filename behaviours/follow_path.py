@@ -41,12 +41,20 @@ from semexp_bt.nav.controller import MotionLimits, SafetyRules, admissible, roll
 from semexp_bt.nav.costmap import Costmap
 
 
-def turn_is_admissible(costmap: Costmap, pose: Pose2D, rate_radps: float, *, duration_s: float = 0.6) -> bool:
-    """Whether a turn in place at ``rate_radps`` for ``duration_s`` keeps the footprint's clearance."""
-    states, commands = rollout(pose, Twist.zero(), np.array([[0.0, rate_radps]]), limits=MotionLimits(),
-                               horizon_s=duration_s, dt_s=0.1)  # fmt: skip
+def motion_is_admissible(costmap: Costmap, pose: Pose2D, twist: Twist, *, duration_s: float = 0.6) -> bool:
+    """Whether ``twist`` (forward speed and yaw rate) held for ``duration_s`` from a standstill passes the
+    controller's safety rules: the footprint's clearance, unseen space, the sweep of the body's corners."""
+    wanted = np.array([[twist.linear_x_mps, twist.angular_z_radps]])
+    states, commands = rollout(
+        pose, Twist.zero(), wanted, limits=MotionLimits(), horizon_s=duration_s, dt_s=0.1
+    )
     ok, _ = admissible(costmap, pose, states, commands, rules=SafetyRules())
     return bool(ok[0])
+
+
+def turn_is_admissible(costmap: Costmap, pose: Pose2D, rate_radps: float, *, duration_s: float = 0.6) -> bool:
+    """Whether a turn in place at ``rate_radps`` for ``duration_s`` keeps the footprint's clearance."""
+    return motion_is_admissible(costmap, pose, Twist(angular_z_radps=rate_radps), duration_s=duration_s)
 
 
 class FollowPath(SemExpBehaviour):

@@ -6,12 +6,15 @@ from the rig's scripted perception, one script entry per view.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 
 import pytest
 from py_trees.common import Status
 
 from behaviours.confirm_target import ConfirmTarget
+from semexp_bt.core.geometry import wrap_angle
+from semexp_bt.core.types import Twist
 from tests.behaviours.rig import INSTRUCTION, Rig, compact, robot_among
 from tests.test_executive import Post, seeing
 
@@ -90,3 +93,67 @@ def test_halting_it_cancels_the_pending_view(make_rig: Callable[..., Rig]) -> No
     rig.halt(confirm)
     assert len(jobs) == 1 and jobs[0].cancelled
     assert rig.get("found_objects") == []
+
+
+def _bearing_to(rig: Rig, post: Post) -> float:
+    pose = rig.robot.base_pose()
+    return abs(wrap_angle(math.atan2(post.y_m - pose.y_m, post.x_m - pose.x_m) - pose.yaw_rad))
+
+
+def test_it_turns_to_face_a_target_at_the_edge_of_the_view_before_the_further_views(
+    make_rig: Callable[..., Rig],
+) -> None:
+    aside = Post(1, 0.85, 0.5, vlm_label="fire extinguisher", detector_label="fire extinguisher")
+    rig = make_rig(robot=robot_among(aside), script=[seeing([aside], directions=False)], latency_s=1.0)
+    rig.get("memory").add_master(position_m=(0.0, 0.0, 0.0), stamp_s=0.0)
+    rig.map_around(turns=16)
+    rig.stage_view([aside])
+    assert _bearing_to(rig, aside) > math.radians(25.0)
+    confirm = rig.build(ConfirmTarget)
+    statuses = rig.tick_until_done(confirm)
+    rig.show(confirm)
+    assert statuses[-1] == Status.SUCCESS
+    assert _bearing_to(rig, aside) < math.radians(12.0)
+    assert rig.get("cmd_twist") == Twist.zero()
+    assert set(rig.written_by(confirm)) == {"cmd_twist", "cmd_stamp_s", "found_objects"}
+
+
+@pytest.mark.parametrize(("approach_to_m", "expected"), [(0.7, Status.SUCCESS), (0.0, Status.FAILURE)])
+def test_a_target_voted_from_beyond_the_success_radius_is_walked_up_to_then_confirmed(
+    make_rig: Callable[..., Rig], approach_to_m: float, expected: Status
+) -> None:
+    # Front surface 1.1 m away: inside the 1.3 m a single vote may reach, beyond r_s = 1.0 m.
+    far = Post(1, 1.3, 0.0, vlm_label="fire extinguisher", detector_label="fire extinguisher")
+    rig = make_rig(robot=robot_among(far), script=[seeing([far], directions=False)], latency_s=1.0)
+    rig.get("memory").add_master(position_m=(0.0, 0.0, 0.0), stamp_s=0.0)
+    rig.map_around(turns=16)
+    rig.stage_view([far])
+    confirm = rig.build(ConfirmTarget, approach_to_m=approach_to_m)
+    statuses = rig.tick_until_done(confirm)
+    rig.show(confirm)
+    assert statuses[-1] == expected
+    walked = rig.robot.base_pose().x_m
+    if expected == Status.SUCCESS:
+        assert 0.3 < walked < 0.45  # from 1.1 m to about 0.7 m of the surface, no closer
+        (found,) = rig.get("found_objects")
+        assert found["position_m"][0] == pytest.approx(1.1, abs=0.1)
+    else:
+        assert walked == pytest.approx(0.0, abs=1e-6)
+        assert "mean position is 1.1" in confirm.feedback_message
+
+
+def test_halting_it_while_it_steps_up_commands_a_zero_twist(make_rig: Callable[..., Rig]) -> None:
+    far = Post(1, 1.3, 0.0, vlm_label="fire extinguisher", detector_label="fire extinguisher")
+    rig = make_rig(robot=robot_among(far), script=[seeing([far], directions=False)])
+    rig.map_around(turns=16)
+    rig.stage_view([far])
+    confirm = rig.build(ConfirmTarget)
+    assert rig.tick(confirm, ticks=5) == [Status.RUNNING] * 5
+    assert rig.get("cmd_twist").linear_x_mps > 0.0
+    rig.halt(confirm)
+    assert rig.get("cmd_twist") == Twist.zero()
+
+
+def test_an_approach_distance_outside_the_success_radius_is_refused_at_build_time(rig: Rig) -> None:
+    with pytest.raises(ValueError, match=r"approach_to_m \(1.2\) must be less than confirm_radius_m \(1.0\)"):
+        rig.build(ConfirmTarget, approach_to_m=1.2)
