@@ -95,6 +95,16 @@ def test_halting_it_cancels_the_pending_view(make_rig: Callable[..., Rig]) -> No
     assert rig.get("found_objects") == []
 
 
+def rig_in_a_mapped_room_with(make_rig: Callable[..., Rig], post: Post) -> Rig:
+    """The robot at the origin with ``post`` in its first view (on the board), every further view seeing
+    it, and the costmap filled from a turn in place (the step up moves only through what it has seen)."""
+    rig = make_rig(robot=robot_among(post), script=[seeing([post], directions=False)], latency_s=1.0)
+    rig.get("memory").add_master(position_m=(0.0, 0.0, 0.0), stamp_s=0.0)
+    rig.map_around(turns=16)
+    rig.stage_view([post])
+    return rig
+
+
 def _bearing_to(rig: Rig, post: Post) -> float:
     pose = rig.robot.base_pose()
     return abs(wrap_angle(math.atan2(post.y_m - pose.y_m, post.x_m - pose.x_m) - pose.yaw_rad))
@@ -104,10 +114,7 @@ def test_it_turns_to_face_a_target_at_the_edge_of_the_view_before_the_further_vi
     make_rig: Callable[..., Rig],
 ) -> None:
     aside = Post(1, 0.85, 0.5, vlm_label="fire extinguisher", detector_label="fire extinguisher")
-    rig = make_rig(robot=robot_among(aside), script=[seeing([aside], directions=False)], latency_s=1.0)
-    rig.get("memory").add_master(position_m=(0.0, 0.0, 0.0), stamp_s=0.0)
-    rig.map_around(turns=16)
-    rig.stage_view([aside])
+    rig = rig_in_a_mapped_room_with(make_rig, aside)
     assert _bearing_to(rig, aside) > math.radians(25.0)
     confirm = rig.build(ConfirmTarget)
     statuses = rig.tick_until_done(confirm)
@@ -124,10 +131,7 @@ def test_a_target_voted_from_beyond_the_success_radius_is_walked_up_to_then_conf
 ) -> None:
     # Front surface 1.1 m away: inside the 1.3 m a single vote may reach, beyond r_s = 1.0 m.
     far = Post(1, 1.3, 0.0, vlm_label="fire extinguisher", detector_label="fire extinguisher")
-    rig = make_rig(robot=robot_among(far), script=[seeing([far], directions=False)], latency_s=1.0)
-    rig.get("memory").add_master(position_m=(0.0, 0.0, 0.0), stamp_s=0.0)
-    rig.map_around(turns=16)
-    rig.stage_view([far])
+    rig = rig_in_a_mapped_room_with(make_rig, far)
     confirm = rig.build(ConfirmTarget, approach_to_m=approach_to_m)
     statuses = rig.tick_until_done(confirm)
     rig.show(confirm)
@@ -144,9 +148,7 @@ def test_a_target_voted_from_beyond_the_success_radius_is_walked_up_to_then_conf
 
 def test_halting_it_while_it_steps_up_commands_a_zero_twist(make_rig: Callable[..., Rig]) -> None:
     far = Post(1, 1.3, 0.0, vlm_label="fire extinguisher", detector_label="fire extinguisher")
-    rig = make_rig(robot=robot_among(far), script=[seeing([far], directions=False)])
-    rig.map_around(turns=16)
-    rig.stage_view([far])
+    rig = rig_in_a_mapped_room_with(make_rig, far)
     confirm = rig.build(ConfirmTarget)
     assert rig.tick(confirm, ticks=5) == [Status.RUNNING] * 5
     assert rig.get("cmd_twist").linear_x_mps > 0.0
