@@ -24,11 +24,11 @@ Stepping up: before the further views, the robot turns until the first vote's po
 ``face_tolerance_deg`` of straight ahead, then walks straight at it until it is ``approach_to_m`` away
 (Nav2-style checks of every motion against the costmap, ``motion_is_admissible``; it stops where the next
 half second of motion would not pass them, or after ``approach_timeout_s``), and waits for the base to stand
-still. Why: an object at the image's edge or at the success radius's rim is what a single stop leaves
+still (at most ``_SETTLE_S``: a legged base never reads exactly zero). Why: an object at the image's edge or at the success radius's rim is what a single stop leaves
 most often (the twelve dev episodes of docs/planner.md's seventh round: robots 0.81-0.91 m from the goal
 whose further views voted 2 of 4 or 0 of 2, and one whose votes averaged 1.00 m away while it stood at
-0.87 m); the emulated detector, like a real one, sees a centred, near object more reliably (truncation,
-off-axis and distance factors, docs/perception.md). A real operator does the same: look at it squarely,
+0.87 m); the emulated detector, like a real one, sees a centred object more reliably (its truncation and
+off-axis factors, docs/perception.md), and the mean of votes from 0.7 m lies inside r_s. A real operator does the same: look at it squarely,
 from close by.
 
 Voting: a view *votes* for the target when one of its arbitration candidates is an object whose
@@ -99,6 +99,8 @@ _STEP_LOOKAHEAD_S = 0.5
 #: The base counts as standing still below these speeds (m/s, rad/s).
 _STILL_MPS = 0.02
 _STILL_RADPS = 0.05
+#: The views start after this long even if the base still reads as moving, s.
+_SETTLE_S = 1.0
 
 
 class ConfirmTarget(SemExpBehaviour):
@@ -232,6 +234,7 @@ class ConfirmTarget(SemExpBehaviour):
         self._stepping = False
         self._step_started_s = 0.0
         self._moved = False
+        self._stopped_s = 0.0
 
     def initialise(self) -> None:
         self._label = None
@@ -342,6 +345,7 @@ class ConfirmTarget(SemExpBehaviour):
             if self._step_up(self._vote_points[0]):
                 return py_trees.common.Status.RUNNING
             self._stepping = False
+            self._stopped_s = self.now_s()
             if self._moved:
                 self.command(Twist.zero())
         if self._moved and not self._standing_still():
@@ -414,6 +418,8 @@ class ConfirmTarget(SemExpBehaviour):
         return True
 
     def _standing_still(self) -> bool:
+        if has_elapsed(since_s=self._stopped_s, now_s=self.now_s(), duration_s=_SETTLE_S):
+            return True
         twist = self.services.robot.base_twist()
         return (
             math.hypot(twist.linear_x_mps, twist.linear_y_mps) < _STILL_MPS

@@ -159,3 +159,17 @@ def test_halting_it_while_it_steps_up_commands_a_zero_twist(make_rig: Callable[.
 def test_an_approach_distance_outside_the_success_radius_is_refused_at_build_time(rig: Rig) -> None:
     with pytest.raises(ValueError, match=r"approach_to_m \(1.2\) must be less than confirm_radius_m \(1.0\)"):
         rig.build(ConfirmTarget, approach_to_m=1.2)
+
+
+def test_a_base_that_never_reads_still_delays_the_views_by_a_second_at_most(
+    make_rig: Callable[..., Rig],
+) -> None:
+    far = Post(1, 1.3, 0.0, vlm_label="fire extinguisher", detector_label="fire extinguisher")
+    rig = rig_in_a_mapped_room_with(make_rig, far)
+    jitter = Twist(linear_x_mps=0.05, angular_z_radps=0.1)  # a legged base standing: never exactly zero
+    rig.robot.base_twist = lambda: jitter  # type: ignore[method-assign]
+    confirm = rig.build(ConfirmTarget)
+    statuses = rig.tick_until_done(confirm, limit_s=30.0)
+    rig.show(confirm)
+    assert statuses[-1] == Status.SUCCESS
+    assert len(rig.perception.requests) == 3
