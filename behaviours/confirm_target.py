@@ -23,13 +23,15 @@ while it steps up, ``cmd_twist`` and ``cmd_stamp_s``.
 Stepping up: before the further views, the robot turns until the first vote's point is within
 ``face_tolerance_deg`` of straight ahead, then walks straight at it until it is ``approach_to_m`` away
 (Nav2-style checks of every motion against the costmap, ``motion_is_admissible``; it stops where the next
-half second of motion would not pass them, or after ``approach_timeout_s``), and waits for the base to stand
-still (at most ``_SETTLE_S``: a legged base never reads exactly zero). Why: an object at the image's edge or at the success radius's rim is what a single stop leaves
-most often (the twelve dev episodes of docs/planner.md's seventh round: robots 0.81-0.91 m from the goal
-whose further views voted 2 of 4 or 0 of 2, and one whose votes averaged 1.00 m away while it stood at
-0.87 m); the emulated detector, like a real one, sees a centred object more reliably (its truncation and
-off-axis factors, docs/perception.md), and the mean of votes from 0.7 m lies inside r_s. A real operator does the same: look at it squarely,
-from close by.
+half second of motion would not pass them, or after ``approach_timeout_s``), and waits for the base to
+stand still (at most ``_SETTLE_S``: a legged base never reads exactly zero).
+
+Why: an object at the image's edge or at the success radius's rim is what a single stop leaves most
+often (the twelve dev episodes of docs/planner.md's seventh round: robots 0.81-0.91 m from the goal whose
+further views voted 2 of 4 or 0 of 2, and one whose votes averaged 1.00 m away while it stood at 0.87 m);
+the emulated detector, like a real one, sees a centred object more reliably (its truncation and off-axis
+factors, docs/perception.md), and the mean of votes from 0.7 m lies inside r_s. A real operator does the
+same: look at it squarely, from close by.
 
 Voting: a view *votes* for the target when one of its arbitration candidates is an object whose
 label names the instructed object (relevance >= ``align_threshold``), whose raw posterior score S(t)
@@ -72,6 +74,7 @@ import py_trees
 from behaviours.base import SemExpBehaviour
 from behaviours.follow_path import motion_is_admissible
 from behaviours.spec import param
+from behaviours.spin import turn_rate_toward
 from semexp_bt.core.clock import has_elapsed
 from semexp_bt.core.evidence import ArbitrationResult, arbitrate, candidate_box
 from semexp_bt.core.geometry import locate_in_view, wrap_angle
@@ -101,6 +104,8 @@ _STILL_MPS = 0.02
 _STILL_RADPS = 0.05
 #: The views start after this long even if the base still reads as moving, s.
 _SETTLE_S = 1.0
+#: The step up's turn is no faster than Spin's default, rad/s.
+_TURN_MAX_RADPS = 0.8
 
 
 class ConfirmTarget(SemExpBehaviour):
@@ -402,7 +407,7 @@ class ConfirmTarget(SemExpBehaviour):
         bearing = wrap_angle(math.atan2(dy, dx) - pose.yaw_rad)
         distance = math.hypot(dx, dy)
         if abs(bearing) > math.radians(self.face_tolerance_deg):
-            rate = math.copysign(min(0.8, max(0.25, 2.0 * abs(bearing))), bearing)
+            rate = turn_rate_toward(bearing, max_radps=_TURN_MAX_RADPS)
             twist, doing = Twist(angular_z_radps=rate), "turning to face"
         elif self.approach_to_m > 0.0 and distance > self.approach_to_m + _APPROACH_SLACK_M:
             speed = min(self.approach_speed_mps, max(0.05, distance - self.approach_to_m))

@@ -38,6 +38,12 @@ from semexp_bt.core.geometry import wrap_angle
 from semexp_bt.core.types import Twist
 
 
+def turn_rate_toward(angle_rad: float, *, max_radps: float) -> float:
+    """The yaw rate of a turn in place with ``angle_rad`` still to go: twice the angle per second, at least
+    0.25 rad/s (the gait turns no slower cleanly) and at most ``max_radps``, with the angle's sign."""
+    return math.copysign(min(max_radps, max(0.25, 2.0 * abs(angle_rad))), angle_rad)
+
+
 class Spin(SemExpBehaviour):
     READS = ("local_map",)
     WRITES = ("cmd_twist", "cmd_stamp_s")
@@ -79,7 +85,7 @@ class Spin(SemExpBehaviour):
         if has_elapsed(since_s=self._started_s, now_s=self.now_s(), duration_s=self.timeout_s):
             self.command(Twist.zero())
             return py_trees.common.Status.FAILURE
-        rate = math.copysign(min(self.yaw_rate_radps, max(0.25, 2.0 * abs(remaining))), remaining)
+        rate = turn_rate_toward(remaining, max_radps=self.yaw_rate_radps)
         costmap = self.read("local_map")
         if costmap is not None and not turn_is_admissible(costmap, pose, rate, duration_s=self.lookahead_s):
             self.command(Twist.zero())

@@ -24,7 +24,6 @@ Example:
 from __future__ import annotations
 
 import ctypes
-import ctypes.util
 import functools
 from typing import Any
 
@@ -37,15 +36,20 @@ MMAP_THRESHOLD_BYTES = 32 * 1024 * 1024
 TRIM_THRESHOLD_BYTES = 128 * 1024 * 1024
 
 
-def _c_function(name: str) -> Any:
-    """The C library's function ``name``, or None where there is no such library or function."""
-    library = ctypes.util.find_library("c")
-    if library is None:
-        return None
+@functools.cache
+def _loaded_symbols() -> ctypes.CDLL | None:
+    """The process's own symbols, the C library's among them (``dlopen(NULL)``: no library search, which
+    ``ctypes.util.find_library`` does with a subprocess at every call)."""
     try:
-        return getattr(ctypes.CDLL(library), name)
-    except (OSError, AttributeError):
+        return ctypes.CDLL(None)
+    except OSError:
         return None
+
+
+def _c_function(name: str) -> Any:
+    """The C library's function ``name``, or None where this C library has no such function."""
+    symbols = _loaded_symbols()
+    return None if symbols is None else getattr(symbols, name, None)
 
 
 @functools.cache
