@@ -57,6 +57,11 @@ EXECUTIVE_CALLS = (
         )
     ),
     "rclpy.publisher:Publisher.publish",
+    # The navigation stack's hot calls: the same work as in process, so a per-call cost above the
+    # in-process one is the process's, not the hand-over's (docs/ros2.md, "The C heap").
+    "behaviours.follow_path:FollowPath.update",
+    "semexp_bt.nav.dwb:DwbController.compute",
+    "semexp_bt.nav.costmap:Costmap.distance_at",
 )
 #: What is timed on the bridge's side.
 BRIDGE_CALLS = (

@@ -5,10 +5,9 @@ some 15,000 sampled points a call) allocate and free numpy temporaries of 100-25
 second. glibc's ``malloc`` serves blocks above its mmap threshold (128 KB at start, raised dynamically)
 with fresh ``mmap`` pages and gives the top of the heap back to the kernel whenever more than the trim
 threshold is free there, so whether such a loop page-faults on every temporary depends on where
-long-lived objects happen to sit on the heap. Measured (docs/ros2.md, "The C heap"): the same controller
-calls cost 2.6x more CPU in the ROS 2 executive's process than in the in-process run of the same episode
-(1,000 vs 390 us a ``distance_at`` call), all of it minor page faults; with these settings both cost
-the same.
+long-lived objects happen to sit on the heap. In the ROS 2 executive's process it did: the same
+controller calls cost about 1,000 us a ``Costmap.distance_at`` where the in-process run paid a third of
+that (docs/ros2.md, "The C heap"; ``tests/test_process_heap.py`` counts the page faults).
 
 :func:`keep_freed_memory` fixes the two thresholds (``mallopt``), which also turns glibc's dynamic
 adjustment off: blocks up to :data:`MMAP_THRESHOLD_BYTES` come from the heap, and the heap's top is
