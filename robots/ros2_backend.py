@@ -183,11 +183,21 @@ def ros_context(rclpy: Any) -> Any:
 
 @dataclass
 class _Stamped:
-    """A message with its stamp (ns) and the steady time it arrived."""
+    """A message with its stamp (ns), the steady time it arrived, and what it converted to once read
+    (a tick reads the IMU twice, the guard and ``safety``; a message does not change after it arrived)."""
 
     stamp_ns: int
     msg: Any
     arrived_s: float
+    converted: Any = None
+
+
+def _read_only(reading: Any) -> Any:
+    """``reading`` (a dataclass of arrays) with its arrays made read-only: every caller shares it."""
+    for value in vars(reading).values():
+        if isinstance(value, np.ndarray):
+            value.setflags(write=False)
+    return reading
 
 
 class Ros2Robot(Robot):
@@ -224,6 +234,7 @@ class Ros2Robot(Robot):
         self.simulation = simulation
         self._use_sim_time = self.profile.use_sim_time or simulation
         self._spec = load_go1_spec()
+        self._optical_to_base = self.profile.optical_to_base()
         self._twist_msg_type = TwistMsg
         # Built once and refilled per step (publish copies it): building a TwistStamped costs as much as
         # filling it.
@@ -820,10 +831,6 @@ class Ros2Robot(Robot):
             segmentation=seg,
         )
 
-    @property
-    def _optical_to_base(self) -> npt.NDArray[np.float64]:
-        return self.profile.optical_to_base()
-
     def observe(self) -> Observation:
         """The latest colour + aligned depth pair (lockstep: rendered now), with the pose it was taken at."""
         with self._lock:
@@ -861,10 +868,12 @@ class Ros2Robot(Robot):
             entry = self._latest.get(stream)
             if entry is None:
                 raise RobotHalted(self.profile.topic_of(stream), "no message yet")
-            try:
-                return convert(entry.msg)
-            except MessageError as error:
-                self._halt_locked(self.profile.topic_of(stream), str(error))
+            if entry.converted is None:
+                try:
+                    entry.converted = _read_only(convert(entry.msg))
+                except MessageError as error:
+                    self._halt_locked(self.profile.topic_of(stream), str(error))
+            return entry.converted
 
     def joint_state(self) -> JointState:
         names = self._spec.joint_names

@@ -61,8 +61,12 @@ class SubscriptionPump:
         return subscription
 
     def pump(self, timeout_s: float) -> int:
-        """Wait up to ``timeout_s`` for a message on any subscription, then take every message queued on
-        the ready ones and run its callback here, in arrival order per subscription; how many ran."""
+        """Wait up to ``timeout_s`` for a message on any subscription, then take the oldest message of
+        each ready one and run its callback here; how many ran.
+
+        One message per subscription and call: a lockstep reply is one message, and taking until the
+        queue is empty costs a second, empty take per reply. What is left keeps its subscription ready,
+        so the next call returns at once and takes it (in arrival order per subscription)."""
         subscriptions = self._subscriptions
         if not subscriptions:
             return 0
@@ -83,11 +87,9 @@ class SubscriptionPump:
         for subscription in subscriptions:
             if subscription.handle.pointer not in ready:
                 continue
-            while True:
-                with subscription.handle:
-                    taken = subscription.handle.take_message(subscription.msg_type, subscription.raw)
-                if taken is None:
-                    break
+            with subscription.handle:
+                taken = subscription.handle.take_message(subscription.msg_type, subscription.raw)
+            if taken is not None:  # ready, yet taken by nobody else: None only if the message expired
                 subscription.callback(taken[0])
                 ran += 1
         return ran

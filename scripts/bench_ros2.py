@@ -7,8 +7,8 @@ Run it in the ROS 2 environment, on loopback only::
 1. The same episode (default: showroom seed 9, kinematic, lexical relevance) in-process (``semexp-bt run``)
    and over ROS 2 in lockstep (``semexp-bt sim-bridge`` and ``semexp-bt run --backend ros2`` as two
    processes), alternately ``--repeats`` times: outcome of each, mission wall time per simulated second
-   (the mission loop only: in-process, the episode's wall time less its setup measured alone; over ROS 2,
-   the executive's ``mission_wall_s``), the executive's tick median and p99.
+   (the mission loop only: each record's ``mission_wall_s``, the wall time of ``run_mission``, measured the
+   same way by both backends), the executive's tick median and p99.
 0. Start-up cost of the ROS 2 wheels' bootstrap ``.pth`` (it re-executes every Python start to set
    LD_LIBRARY_PATH): median wall time of the same commands with .venv's interpreter and with
    .venv-ros2's (the same packages plus the ROS 2 wheels), ``--startup-repeats`` runs each.
@@ -48,7 +48,7 @@ def _cli(*args: str) -> list[str]:
 
 
 def in_process(mission: Path, scene: str, seed: int, out: Path) -> dict[str, Any]:
-    """One in-process episode (``semexp-bt run``) and its setup cost measured alone."""
+    """One in-process episode (``semexp-bt run``)."""
     record_path = out / f"inprocess_{scene}_{seed}.json"
     subprocess.run(
         _cli(
@@ -67,45 +67,16 @@ def in_process(mission: Path, scene: str, seed: int, out: Path) -> dict[str, Any
         capture_output=True,
     )
     record = json.loads(record_path.read_text())
-    setup = subprocess.run(
-        [sys.executable, "-c", _SETUP_PROBE, scene, str(seed)], check=True, capture_output=True, text=True
-    )
-    setup_s = float(setup.stdout.strip().splitlines()[-1])
-    mission_s = record["wall_time_s"] - setup_s
     return {
         "outcome": record["outcome"],
         "success": record["success"],
         "ticks": record["ticks"],
         "sim_time_s": record["sim_time_s"],
         "wall_time_s": record["wall_time_s"],
-        "setup_s": setup_s,
-        "mission_wall_s": mission_s,
-        "wall_per_sim_s": mission_s / record["sim_time_s"],
+        "mission_wall_s": record["mission_wall_s"],
+        "wall_per_sim_s": record["mission_wall_s"] / record["sim_time_s"],
         "tick_wall_ms": record["tick_wall_ms"],
     }
-
-
-#: What run_episode does before its first tick (scene, oracle, episode, robot, scorer, mission), timed alone.
-_SETUP_PROBE = """
-import sys, time
-t0 = time.perf_counter()
-from pathlib import Path
-from semexp_bt.app.components import build_relevance
-from robots.mujoco_backend import MujocoRobot
-from sims.catalogue import build_scene
-from sims.episodes import sample_episode
-from sims.geodesic import GeodesicOracle
-from trees.loader import parse_mission
-t1 = time.perf_counter()
-scene = build_scene(sys.argv[1], seed=int(sys.argv[2]))
-oracle = GeodesicOracle(scene)
-episode = sample_episode(scene, seed=int(sys.argv[2]), oracle=oracle)
-parse_mission(Path("trees/object_search.yaml"))
-robot = MujocoRobot(scene=scene, fidelity="kinematic", start_pose=episode.start, seed=int(sys.argv[2]))
-build_relevance("lexical")
-robot.close()
-print(time.perf_counter() - t1)
-"""
 
 
 def over_ros2(mission: Path, scene: str, seed: int, out: Path) -> dict[str, Any]:

@@ -294,9 +294,11 @@ class SimBridge:
         return self.options.mode == "realtime" or self._pubs[stream].get_subscription_count() > 0
 
     def publish_state(self, *, heartbeat: bool = False) -> None:
-        """Clock, odometry (and every PROPRIOCEPTION_EVERY steps, or on a heartbeat, IMU and joint states)
-        of the current instant, all stamped with it; in lockstep ``/sim/state`` last, the reply the
-        executive waits for (the IMU and joints it reads then have gone out before it)."""
+        """The current instant's clock and odometry (and every PROPRIOCEPTION_EVERY steps, or on a
+        heartbeat, IMU and joint states), all stamped with it. In lockstep ``/sim/state`` goes first: it is
+        the reply the executive waits for, and what follows (the IMU and joints, the streams ROS tools
+        listen to) then goes out while the executive ticks its tree, on the other core; the executive
+        takes those at its next wait."""
         now_ns = self._now_ns()
         stamp_s = now_ns * 1e-9
         frames = self.profile.frames
@@ -306,6 +308,18 @@ class SimBridge:
         position, orientation = robot.base_odometry()
         twist = robot.base_twist()
         sim_time_s = robot.now_s()
+        if self.options.mode == "lockstep" and not self._silenced("odom"):  # it carries the odometry
+            state = self._reused["state"]
+            state.data = encode_state(
+                SimState(
+                    stamp_ns=now_ns,
+                    sim_time_s=sim_time_s,
+                    position_m=position,
+                    orientation_xyzw=orientation,
+                    twist=twist,
+                )
+            )
+            self._pubs["state"].publish(state)
         if self._wanted("odom"):
             odom = self._reused["odom"]
             fill_odometry(
@@ -333,18 +347,6 @@ class SimBridge:
             clock = self._reused["clock"]
             fill_stamp(clock.clock, stamp_s)
             self._publish("clock", clock)
-        if self.options.mode == "lockstep" and not self._silenced("odom"):  # it carries the odometry
-            state = self._reused["state"]
-            state.data = encode_state(
-                SimState(
-                    stamp_ns=now_ns,
-                    sim_time_s=sim_time_s,
-                    position_m=position,
-                    orientation_xyzw=orientation,
-                    twist=twist,
-                )
-            )
-            self._pubs["state"].publish(state)
 
     def publish_frame(self, request: CameraRequest) -> None:
         """Render the camera now and publish camera info, depth and (full frames) colour and segmentation."""

@@ -23,6 +23,7 @@ from typing import Any
 
 import pytest
 
+from semexp_bt.bench.compare import WALL_CLOCK_FIELDS as COMPARED_WALL_CLOCK_FIELDS
 from semexp_bt.bench.engine import run_sweep
 from semexp_bt.bench.rows import STATUS_ERROR, STATUS_OK
 from semexp_bt.bench.store import load_rows
@@ -37,8 +38,8 @@ REPO = Path(__file__).resolve().parents[1]
 #: Keeps every socket of the head on loopback: Ray otherwise replaces 127.0.0.1 by the machine's routable
 #: address. The driver side (the harness) sets the same switch itself for a loopback address.
 LOOPBACK_ENV = {"RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER": "0", "RAY_USAGE_STATS_ENABLED": "0"}
-#: Row fields that measure the machine, not the episode.
-WALL_CLOCK_FIELDS = {"wall_time_s", "harness_wall_s", "tick_wall_ms", "tick_cpu_ms", "timings", "worker_pid"}
+#: Row fields that measure the machine, not the episode (a Ray row also names its worker's process).
+WALL_CLOCK_FIELDS = COMPARED_WALL_CLOCK_FIELDS | {"worker_pid"}
 
 
 def _free_port() -> int:

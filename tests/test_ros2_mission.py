@@ -37,6 +37,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 
 pytest.importorskip("rclpy", reason="the ROS 2 environment (make ros2-env) provides rclpy")
@@ -94,7 +95,7 @@ def _run_in_process(tmp_path: Path, mission: Path, scene: str, seed: int) -> tup
 
 
 def _run_pair(
-    tmp_path: Path, mission: Path, scene: str, seed: int, *, domain: int
+    tmp_path: Path, mission: Path, scene: str, seed: int, *, domain: int, executive_args: tuple[str, ...] = ()
 ) -> tuple[dict[str, Any], dict[str, Any], int, Path]:
     env = isolated_env(domain)
     bridge_json, exec_json = tmp_path / "bridge.json", tmp_path / "executive.json"
@@ -130,6 +131,7 @@ def _run_pair(
                 str(exec_json),
                 "--record",
                 str(ticks),
+                *executive_args,
             ],
             env=env,
             log=tmp_path / "executive.log",
@@ -203,6 +205,43 @@ def _profile(tmp_path: Path, **deadlines: float) -> Path:
     path = tmp_path / "robot.yaml"
     path.write_text("deadlines_s: {" + ", ".join(f"{k}: {v}" for k, v in values.items()) + "}\n")
     return path
+
+
+@pytest.mark.viewer
+def test_the_view_of_a_mission_over_ros2_is_saved_as_in_process(tmp_path: Path) -> None:
+    """``--view-record`` on the ROS 2 backend: the tree's records of every tick and the world (the pose at
+    10 Hz, each perceived frame) in the saved view, under the scene the bridge announced. Needs the viewer
+    extra: ``make viewer-test`` runs it in the ROS 2 environment."""
+    from semexp_bt.app.viewer import world as entities
+    from semexp_bt.app.viewer.recording import open_recording
+    from tests.viewer_support import timed_rows, written_at
+
+    scene, seed = EPISODES[0]
+    view_dir = tmp_path / "view"
+    mission = mission_with_budget(tmp_path / "mission", E2E_BUDGET_S)
+    executive, scored, rc, _ = _run_pair(
+        tmp_path,
+        mission,
+        scene,
+        seed,
+        domain=fresh_domain_id(),
+        executive_args=("--view-record", str(view_dir)),
+    )
+    assert rc in (0, 1) and executive["outcome"] != "halted", executive["halted_by"]
+    saved = open_recording(view_dir)
+    print(saved.manifest)
+    assert saved.complete and saved.world_path is not None
+    assert saved.manifest["mission"]["backend"] == "ros2" and saved.manifest["mission"]["scene"] == scene
+    assert saved.manifest["title"].startswith(f"{scene} seed {seed} over ROS 2")
+    assert saved.manifest["frames"]["dropped"] == 0 and saved.manifest["worker_errors"] == []
+    assert [json.loads(line)["tick"] for line in saved.tick_lines] == list(range(1, executive["ticks"] + 1))
+    rows = timed_rows(saved.world_path)
+    robot = rows[entities.ROBOT]
+    assert robot[0] == 0 and robot[-1] == executive["ticks"] and set(np.diff(robot[1:-1])) == {5}
+    observed = written_at(saved.tick_lines, "/observation")
+    assert observed and rows[entities.CAMERA_RGB] == observed
+    # The bridge rendered each perceived frame the view holds (and the planner's depth between them).
+    assert scored["ended_by"] == "mission_end" and scored["frames_published"] >= len(observed)
 
 
 def test_a_silent_camera_zeroes_the_twist_and_halts_the_mission_naming_it(tmp_path: Path) -> None:

@@ -2,7 +2,8 @@
 
 Checked on one node in this process (loopback DDS, a fresh domain): a pumped subscription's callback runs
 on the thread that pumps, in arrival order, never on an executor that spins the same node (which still
-runs the node's other subscriptions), and a pump with nothing to take returns after its timeout.
+runs the node's other subscriptions), one message per subscription and call, and a pump with nothing to
+take returns after its timeout.
 """
 
 from __future__ import annotations
@@ -62,7 +63,8 @@ def test_pumped_messages_run_on_the_pumping_thread_and_never_on_the_executor() -
         assert wait_for(lambda: len(spun) == 3, timeout_s=10)
         time.sleep(0.2)  # the executor had the time to (wrongly) take the pumped ones too
         assert pumped == []
-        ran = 0
+        ran = pump.pump(1.0)
+        assert ran == 1  # the oldest of the three: one message per subscription and call
         deadline = time.monotonic() + 10
         while ran < 3 and time.monotonic() < deadline:
             ran += pump.pump(1.0)

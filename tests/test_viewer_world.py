@@ -8,7 +8,6 @@ scan, the first decisions and the first walk.
 
 from __future__ import annotations
 
-import json
 from collections import Counter
 from pathlib import Path
 from typing import Any
@@ -21,6 +20,7 @@ from semexp_bt.app.viewer import world as entities
 from semexp_bt.app.viewer.observer import ViewOptions
 from semexp_bt.app.viewer.recording import open_recording
 from semexp_bt.cli import main
+from tests.viewer_support import timed_rows, written_at
 
 pytestmark = pytest.mark.viewer
 
@@ -50,29 +50,6 @@ def record_mujoco_view(directory: Path) -> dict[str, Any]:
 def recorded(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str, Any]]:
     directory = tmp_path_factory.mktemp("view") / "road-0"
     return directory, record_mujoco_view(directory)
-
-
-def timed_rows(world_path: Path) -> dict[str, list[int]]:
-    """The ticks at which each entity was logged, by entity path (Rerun's reader)."""
-    import rerun.chunk as rrc
-
-    ticks: dict[str, list[int]] = {}
-    for chunk in rrc.RrdReader(str(world_path)).store().stream():
-        if chunk.is_static:
-            continue
-        batch = chunk.to_record_batch()
-        ticks.setdefault(chunk.entity_path.lstrip("/"), []).extend(batch.column("tick").to_pylist())
-    return {entity: sorted(values) for entity, values in ticks.items()}
-
-
-def written_at(tick_lines: list[str], key: str) -> list[int]:
-    """The ticks at which the tick record says ``key`` was written."""
-    out = []
-    for line in tick_lines:
-        record = json.loads(line)
-        if any(w["key"] == key for w in record["writes"]):
-            out.append(record["tick"])
-    return out
 
 
 def test_the_rerun_recording_holds_each_entity_at_the_expected_ticks(

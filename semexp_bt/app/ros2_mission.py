@@ -25,9 +25,9 @@ from __future__ import annotations
 
 import time
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, TextIO
+from typing import TYPE_CHECKING, Any, TextIO
 
 import numpy as np
 
@@ -46,6 +46,10 @@ from semexp_bt.app.runner import MissionComponents, MissionResult, MissionRun, r
 from semexp_bt.app.strategies import resolve_strategy
 from semexp_bt.core.types import InvalidInputError
 from trees.loader import parse_mission
+
+if TYPE_CHECKING:
+    from semexp_bt.app.viewer.observer import ViewOptions
+    from semexp_bt.core.scene import SceneSpec
 
 #: How long (s) the executive waits for the bridge to acknowledge the outcome; after a halt, shorter.
 OUTCOME_ACK_S = 2.0
@@ -74,6 +78,8 @@ class Ros2MissionOptions:
         display_stream: where the display prints.
         record_path: write the per-tick record (JSONL) here.
         max_time_s: hard cap on mission time (ROS time), whatever the tree says.
+        view: serve and/or save the browser view (docs/viewer.md), as ``semexp-bt run --view`` does
+            in-process; with the bridge, the title and the manifest name the scene it announced.
     """
 
     mission_path: Path
@@ -89,6 +95,19 @@ class Ros2MissionOptions:
     display_stream: TextIO | None = None
     record_path: Path | None = None
     max_time_s: float = 900.0
+    view: ViewOptions | None = None
+
+
+def _view_for(options: Ros2MissionOptions, scene: SceneSpec | None) -> ViewOptions:
+    """The view's options with what only the robot knows: the backend, and the bridge's scene."""
+    assert options.view is not None
+    view = options.view
+    where = "ROS 2" if scene is None else f"{scene.name} seed {options.seed} over ROS 2"
+    return replace(
+        view,
+        title=view.title or f"{where}: {options.mission_path.name}",
+        mission={**view.mission, "backend": "ros2", "scene": None if scene is None else scene.name},
+    )
 
 
 @dataclass
@@ -136,6 +155,10 @@ def run_ros2_mission(options: Ros2MissionOptions) -> dict[str, Any]:
         mission_source=str(options.mission_path),
     )
     simulation = options.perception == SIMULATED_PERCEPTION
+    if options.view is not None and options.view.world:
+        from semexp_bt.app.viewer.observer import require_world_view
+
+        require_world_view()  # before waiting for the robot: a missing extra is one line, at once
     request = ComponentRequest(
         seed=options.seed,
         strategy=strategy,
@@ -167,6 +190,11 @@ def run_ros2_mission(options: Ros2MissionOptions) -> dict[str, Any]:
         recorder = TickRecorder(
             path=options.record_path, display=options.display, stream=options.display_stream
         )
+        observers: list[Any] = [recorder, watch]
+        if options.view is not None:
+            from semexp_bt.app.viewer.observer import ViewObserver
+
+            observers.append(ViewObserver(_view_for(options, scene), recorder=recorder))
         halted_by: dict[str, str | None] | None = None
         result: MissionResult | None = None
         mission_start = time.perf_counter()
@@ -180,7 +208,7 @@ def run_ros2_mission(options: Ros2MissionOptions) -> dict[str, Any]:
                 strategy_switches=strategy.switches,
                 start_pose=start_pose,
                 max_time_s=options.max_time_s,
-                observers=[recorder, watch],
+                observers=observers,
             )
         except RobotHalted as halt:
             halted_by = {"topic": halt.topic, "reason": halt.reason}

@@ -25,10 +25,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-#: Row fields that measure the machine, not the episode: stage and tick wall times, the episode's and the
-#: harness's wall time, and the mission file's path (the key's config hash already covers its content).
+#: Row fields that measure the machine, not the episode: stage and tick wall times, the episode's, its
+#: mission loop's and the harness's wall time, and the mission file's path (the key's config hash already
+#: covers its content).
 WALL_CLOCK_FIELDS = frozenset(
-    {"timings", "tick_wall_ms", "tick_cpu_ms", "wall_time_s", "harness_wall_s", "mission"}
+    {"timings", "tick_wall_ms", "tick_cpu_ms", "wall_time_s", "mission_wall_s", "harness_wall_s", "mission"}
 )
 
 

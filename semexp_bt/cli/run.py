@@ -144,6 +144,7 @@ def _run_ros2(args: argparse.Namespace) -> int:
     from robots.ros2_backend import Ros2Error
     from semexp_bt.app.configuration import read_config_file
     from semexp_bt.app.ros2_mission import Ros2MissionOptions, run_ros2_mission
+    from semexp_bt.app.viewer.observer import ViewerUnavailableError
     from semexp_bt.cli.process_end import bound_the_teardown, dump_stacks_on_request
 
     def on_sigterm(signum: int, frame: FrameType | None) -> None:
@@ -166,9 +167,12 @@ def _run_ros2(args: argparse.Namespace) -> int:
                 config_overrides=None if args.config is None else read_config_file(args.config),
                 display=args.display,
                 record_path=args.record,
+                view=_view_options(args),
             )
         )
-    except (ValueError, Ros2Error) as exc:  # a bad mission, config or profile; no rclpy; no robot
+    except (ValueError, RuntimeError) as exc:  # a bad mission, config or profile; no rclpy, no robot;
+        if not isinstance(exc, (ValueError, Ros2Error, ViewerUnavailableError)):  # no viewer extra
+            raise
         print(f"error: {exc}", file=sys.stderr)
         return 2
     if args.json is not None:
@@ -244,7 +248,8 @@ def _view_options(args: argparse.Namespace) -> Any:
         record_dir=args.view_record,
         port=args.view_port,
         open_browser=args.view,
-        title=f"{args.scene} seed {args.seed}: {args.mission.name}",
+        # Over ROS 2 the scene is the bridge's, known once it has announced it (ros2_mission fills it in).
+        title="" if args.backend == "ros2" else f"{args.scene} seed {args.seed}: {args.mission.name}",
         mission={
             "scene": args.scene,
             "seed": args.seed,
