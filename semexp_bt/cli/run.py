@@ -144,7 +144,6 @@ def _run_ros2(args: argparse.Namespace) -> int:
     from robots.ros2_backend import Ros2Error
     from semexp_bt.app.configuration import read_config_file
     from semexp_bt.app.ros2_mission import Ros2MissionOptions, run_ros2_mission
-    from semexp_bt.app.viewer.observer import ViewerUnavailableError
     from semexp_bt.cli.process_end import bound_the_teardown, dump_stacks_on_request
 
     def on_sigterm(signum: int, frame: FrameType | None) -> None:
@@ -171,7 +170,9 @@ def _run_ros2(args: argparse.Namespace) -> int:
             )
         )
     except (ValueError, RuntimeError) as exc:  # a bad mission, config or profile; no rclpy, no robot;
-        if not isinstance(exc, (ValueError, Ros2Error, ViewerUnavailableError)):  # no viewer extra
+        from semexp_bt.app.viewer.observer import ViewerUnavailableError  # no viewer extra
+
+        if not isinstance(exc, (ValueError, Ros2Error, ViewerUnavailableError)):
             raise
         print(f"error: {exc}", file=sys.stderr)
         return 2
