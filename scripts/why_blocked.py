@@ -120,17 +120,21 @@ def main() -> int:
 
         def after_tick(self, run: Any) -> None:
             storage = py_trees.blackboard.Blackboard.storage
-            result, plan = storage.get("/plan"), storage.get("/global_plan")
+            result, plan, costmap = (
+                storage.get("/plan"),
+                storage.get("/global_plan"),
+                storage.get("/local_map"),
+            )
             robot = run.services.robot
             now = robot.now_s()
-            if getattr(result, "status", None) != "blocked" or plan is None or not plan.ok:
+            if getattr(result, "status", None) != "blocked" or plan is None or not plan.ok or costmap is None:
                 return
             if len(reported) >= args.reports or (reported and now - reported[-1] < 1.0):
                 return
             reported.append(now)
             planner = run.services.planner
             controller = planner if isinstance(planner, DwbController) else planner._fallback
-            costmap, pose = storage.get("/local_map"), robot.base_pose()
+            pose = robot.base_pose()
             print(
                 f"t={now:.2f} s, pose ({pose.x_m:.2f}, {pose.y_m:.2f}) m, heading {math.degrees(pose.yaw_rad):.0f} deg"
             )
