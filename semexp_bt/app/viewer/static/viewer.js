@@ -22,7 +22,7 @@ const view = {
   index: -1,            // the record shown
   following: true,
   done: false,
-  rerun: { ready: false, timeline: "tick", time: null, events: 0, error: null, pending: null },
+  rerun: { ready: false, timeline: "tick", time: null, events: 0, error: null, pending: null, sought: null, soughtAt: 0 },
   rows: new Map(),      // node name -> {li, ms, feedback, written}
 };
 window.semexpView = {
@@ -145,7 +145,7 @@ function seekTick(tick, { world }) {
   let index = view.tickIndex.get(tick);
   if (index === undefined) index = nearestIndex((r) => r.tick <= tick);
   render(index);
-  if (world) sendWorldTime(view.records[index].tick);
+  if (world) seekWorldFromTree(view.records[index].tick);
 }
 
 function nearestIndex(before) {
@@ -159,6 +159,16 @@ function nearestIndex(before) {
 
 // ------------------------------------------------------------------------------------------------ world
 const widget = { listeners: new Map() };
+
+// How long (ms) after the tree moved Rerun the tree ignores Rerun's reports of other times: a viewer
+// still loading its recording reports where its own cursor is, and the tree must keep what the user chose.
+const SEEK_HOLD_MS = 2000;
+
+function seekWorldFromTree(tick) {
+  view.rerun.sought = tick;
+  view.rerun.soughtAt = performance.now();
+  sendWorldTime(tick);
+}
 
 function sendWorldTime(tick) {
   const handlers = widget.listeners.get("msg:custom") || [];
@@ -197,6 +207,12 @@ function onWorldEvent(message) {
     if (!Number.isFinite(time)) return;
     view.rerun.time = time;
     if (!view.records.length || view.following) return;
+    if (view.rerun.sought !== null) {
+      const arrived = view.rerun.timeline === "tick" && time === view.rerun.sought;
+      if (!arrived && performance.now() - view.rerun.soughtAt < SEEK_HOLD_MS) return;
+      view.rerun.sought = null;
+      if (arrived) return; // our seek came back: the tree is already there
+    }
     // Rerun moved (its own scrubber, or our seek coming back): the tree follows.
     const index = view.rerun.timeline === "sim_time"
       ? nearestIndex((r) => r.stamp_s * 1e9 <= time + 1e6)
@@ -288,7 +304,7 @@ function wireControls() {
     view.following = false;
     markFollow();
     render(Number(scrub.value));
-    sendWorldTime(view.records[Number(scrub.value)].tick);
+    seekWorldFromTree(view.records[Number(scrub.value)].tick);
   });
   $("follow").addEventListener("click", () => {
     view.following = true;
@@ -308,7 +324,7 @@ function wireControls() {
       const step = Math.max(1, Math.round((speed * 0.1) / TICK_PERIOD_S));
       const next = Math.min(view.index + step, view.records.length - 1);
       render(next);
-      sendWorldTime(view.records[next].tick);
+      seekWorldFromTree(view.records[next].tick);
       if (next >= view.records.length - 1 && view.done) { clearInterval(timer); timer = null; $("play").textContent = "▶"; }
     }, 100);
   });
