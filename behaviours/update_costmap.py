@@ -1,11 +1,14 @@
-"""UpdateCostmap: add the head camera's latest depth frame to the costmap (``local_map``).
+"""UpdateCostmap: add the head camera's latest depth frame, and the flank cameras' where the robot has
+them (``Robot.observe_side_depth``), to the costmap (``local_map``).
 
 Semantics (it never returns RUNNING):
 
 - SUCCESS: after asking the robot for a depth frame at the costmap's pixels only
-  (``Robot.observe_depth(pixel_grids=...)``: a simulated camera casts rays there instead of rendering)
-  and integrating it (:meth:`semexp_bt.nav.costmap.Costmap.integrate`: marking, clearing, footprint
-  clearing, inflation where it changed). The tree runs it behind a RateLimiter, 6 Hz by default.
+  (``Robot.observe_depth(pixel_grids=...)``: a simulated camera casts rays there instead of rendering),
+  and for the flank cameras' frames where it has them (``Robot.observe_side_depth``; a robot without
+  them returns none), and integrating them in one update
+  (:meth:`semexp_bt.nav.costmap.Costmap.integrate`: marking, clearing, footprint clearing, inflation
+  where it changed). The tree runs it behind a RateLimiter, 6 Hz by default.
 - FAILURE: there is no costmap on the board.
 
 Reads ``local_map`` and changes it in place (declared as a write of ``local_map``).
@@ -39,11 +42,15 @@ class UpdateCostmap(SemExpBehaviour):
         if costmap is None:
             self.feedback_message = "no costmap on the board"
             return py_trees.common.Status.FAILURE
-        frame = self.services.robot.observe_depth(pixel_grids=[costmap.sampled_pixels])
+        robot = self.services.robot
+        pixels = [costmap.sampled_pixels]
+        head = robot.observe_depth(pixel_grids=pixels)
+        beside = robot.observe_side_depth(pixel_grids=pixels)
         with self.timed("costmap_update"):
-            stats = costmap.integrate(frame)
+            stats = costmap.integrate(head, *beside)
+        cameras = f"{1 + len(beside)} cameras" if beside else "the head camera"
         self.feedback_message = (
-            f"{stats.rays} rays: {stats.marked_cells} marked, {stats.cleared_cells} cleared, "
+            f"{stats.rays} rays from {cameras}: {stats.marked_cells} marked, {stats.cleared_cells} cleared, "
             f"{stats.lethal_changed} lethal changed (revision {costmap.revision})"
         )
         return py_trees.common.Status.SUCCESS

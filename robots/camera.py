@@ -60,7 +60,7 @@ _SLOW_RENDER_FLAGS = (
 )
 
 
-class _PixelRays(NamedTuple):
+class PixelRays(NamedTuple):
     """The camera-fixed part of casting rays at a set of pixels, computed once per set."""
 
     rows: npt.NDArray[np.intp]
@@ -71,6 +71,75 @@ class _PixelRays(NamedTuple):
     """Optical-axis depth per metre along each ray."""
     cutoff_m: float
     """Range beyond which no ray can return a valid depth."""
+
+
+def pixel_rays(
+    intrinsics: CameraIntrinsics,
+    *,
+    height_px: int,
+    width_px: int,
+    pixel_grids: Sequence[PixelGrid],
+    max_depth_m: float,
+) -> PixelRays:
+    """The optical-frame rays through the union of the grids' pixels of a pinhole camera."""
+    sampled = np.zeros((height_px, width_px), dtype=bool)
+    for grid in pixel_grids:
+        sampled |= grid.mask(height_px=height_px, width_px=width_px)
+    rows, cols = np.nonzero(sampled)
+    k = intrinsics
+    directions = np.stack(
+        [(cols - k.cx_px) / k.fx_px, (rows - k.cy_px) / k.fy_px, np.ones(rows.shape[0])], axis=1
+    )
+    norms = np.linalg.norm(directions, axis=1)
+    depth_per_range = 1.0 / norms
+    # The most oblique ray reaches max_depth_m along the axis at the longest range.
+    cutoff_m = max_depth_m / float(depth_per_range.min()) if norms.size else 0.0
+    return PixelRays(rows, cols, directions / norms[:, None], depth_per_range, cutoff_m)
+
+
+def cast_depth(
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    rays: PixelRays,
+    *,
+    origin_m: FloatArray,
+    optical_to_world: FloatArray,
+    geomgroup: npt.NDArray[np.uint8],
+    exclude_body_id: int,
+    depth_range_m: tuple[float, float],
+    shape: tuple[int, int],
+    invalid_geoms: npt.NDArray[np.int32] | None = None,
+) -> npt.NDArray[np.float32]:
+    """Depth along the optical axis at the rays' pixels (``mj_multiRay``), in whole millimetres; NaN at
+    pixels without a ray; 0 where nothing is hit within range, or where the hit geom is one of
+    ``invalid_geoms`` (the robot's own legs, which a real depth camera masks out)."""
+    directions = np.ascontiguousarray(rays.directions_optical @ optical_to_world.T).ravel()
+    count = rays.rows.shape[0]
+    geom_ids = np.empty(count, dtype=np.int32)
+    ranges = np.empty(count, dtype=np.float64)
+    if count:
+        mujoco.mj_multiRay(
+            model,
+            data,
+            np.array(origin_m, dtype=np.float64),
+            directions,
+            geomgroup,
+            1,
+            exclude_body_id,
+            geom_ids,
+            ranges,
+            None,
+            count,
+            rays.cutoff_m,
+        )
+    depth_along_axis = ranges * rays.depth_per_range
+    low, high = depth_range_m
+    valid = (ranges >= 0.0) & (depth_along_axis >= low) & (depth_along_axis <= high)
+    if invalid_geoms is not None and invalid_geoms.size:
+        valid &= ~np.isin(geom_ids, invalid_geoms)
+    depth = np.full(shape, np.nan, dtype=np.float32)
+    depth[rays.rows, rays.cols] = np.where(valid, depth_along_axis, 0.0)
+    return round_depth_to_millimetres(depth)
 
 
 @dataclass(frozen=True)
@@ -268,7 +337,7 @@ class RgbdCamera:
         self._camera.fixedcamid = self._camera_id
         self._rgb = np.empty((height, width, 3), dtype=np.uint8)
         self._depth = np.empty((height, width), dtype=np.float32)
-        self._ray_cache: dict[tuple[PixelGrid, ...], _PixelRays] = {}
+        self._ray_cache: dict[tuple[PixelGrid, ...], PixelRays] = {}
         self._closed = False
 
     @property
@@ -380,53 +449,25 @@ class RgbdCamera:
         key = tuple(pixel_grids)
         rays = self._ray_cache.get(key)
         if rays is None:
-            rays = self._ray_cache[key] = self._pixel_rays(key)
-        to_world = data.cam_xmat[self._camera_id].reshape(3, 3) @ MUJOCO_TO_OPTICAL
-        directions = np.ascontiguousarray(rays.directions_optical @ to_world.T).ravel()
-        count = rays.rows.shape[0]
-        geom_ids = np.empty(count, dtype=np.int32)
-        ranges = np.empty(count, dtype=np.float64)
-        if count:
-            mujoco.mj_multiRay(
-                self._model,
-                data,
-                data.cam_xpos[self._camera_id].copy(),
-                directions,
-                self._option.geomgroup,
-                1,
-                exclude_body_id,
-                geom_ids,
-                ranges,
-                None,
-                count,
-                rays.cutoff_m,
+            rays = self._ray_cache[key] = pixel_rays(
+                self.intrinsics,
+                height_px=self._config.height_px,
+                width_px=self._config.width_px,
+                pixel_grids=key,
+                max_depth_m=self._config.max_depth_m,
             )
-        depth_along_axis = ranges * rays.depth_per_range
-        valid = (
-            (ranges >= 0.0)
-            & (depth_along_axis >= self._config.min_depth_m)
-            & (depth_along_axis <= self._config.max_depth_m)
+        optical_to_world = data.cam_xmat[self._camera_id].reshape(3, 3) @ MUJOCO_TO_OPTICAL
+        return cast_depth(
+            self._model,
+            data,
+            rays,
+            origin_m=data.cam_xpos[self._camera_id],
+            optical_to_world=optical_to_world,
+            geomgroup=self._option.geomgroup,
+            exclude_body_id=exclude_body_id,
+            depth_range_m=(self._config.min_depth_m, self._config.max_depth_m),
+            shape=(self._config.height_px, self._config.width_px),
         )
-        depth = np.full((self._config.height_px, self._config.width_px), np.nan, dtype=np.float32)
-        depth[rays.rows, rays.cols] = np.where(valid, depth_along_axis, 0.0)
-        return round_depth_to_millimetres(depth)
-
-    def _pixel_rays(self, pixel_grids: tuple[PixelGrid, ...]) -> _PixelRays:
-        """The rays through the union of the grids' pixels."""
-        height, width = self._config.height_px, self._config.width_px
-        sampled = np.zeros((height, width), dtype=bool)
-        for grid in pixel_grids:
-            sampled |= grid.mask(height_px=height, width_px=width)
-        rows, cols = np.nonzero(sampled)
-        k = self.intrinsics
-        directions = np.stack(
-            [(cols - k.cx_px) / k.fx_px, (rows - k.cy_px) / k.fy_px, np.ones(rows.shape[0])], axis=1
-        )
-        norms = np.linalg.norm(directions, axis=1)
-        depth_per_range = 1.0 / norms
-        # The most oblique ray reaches max_depth_m along the axis at the longest range.
-        cutoff_m = self._config.max_depth_m / float(depth_per_range.min()) if norms.size else 0.0
-        return _PixelRays(rows, cols, directions / norms[:, None], depth_per_range, cutoff_m)
 
     def render_segmentation(self, data: mujoco.MjData) -> npt.NDArray[np.int32]:
         """Segmentation only: scene object id per pixel."""

@@ -75,6 +75,16 @@ class Robot(abc.ABC):
         del pixel_grids  # a whole frame serves any set of pixels
         return self.observe()
 
+    def observe_side_depth(self, *, pixel_grids: Sequence[PixelGrid] | None = None) -> list[Observation]:
+        """Depth frames of the cameras beside the body (``robots.side_depth``), for the costmap only.
+
+        The default is none: a robot without them (or a backend that does not stream them) leaves the
+        floor beside its body to what the head camera saw earlier, and the controller's sweep rule
+        treats the rest as unknown. Each frame's ``rgb`` is empty.
+        """
+        del pixel_grids
+        return []
+
     def sensor_stamps(self) -> SensorStamps:
         """When the camera, odometry and IMU last delivered data (cheap: no rendering, no reading).
 

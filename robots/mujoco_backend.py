@@ -49,6 +49,7 @@ from robots.go1 import (
 from robots.interface import FIDELITIES, Fidelity, Robot
 from robots.mjcf_scene import build_mjcf, geom_object_ids, robot_geom_ids
 from robots.ros2_messages import pose2d_of, pose_to_transform
+from robots.side_depth import GO1_SIDE_DEPTH, SideDepthCameras, SideDepthConfig
 from semexp_bt.core.geometry import wrap_angle
 from semexp_bt.core.scene import SceneSpec
 from semexp_bt.core.types import (
@@ -184,6 +185,7 @@ class MujocoRobot(Robot):
         imu_noise: IMU noise; :class:`ImuNoise` defaults when None.
         depth_sampling: how :meth:`observe_depth` measures the pixels a caller asks for: ``"rays"``
             (one ray per pixel, no rasteriser) or ``"raster"`` (a rendered depth frame).
+        side_depth: the flank depth cameras (``robots/side_depth.py``), for the costmap; None: none.
 
     Raises:
         InvalidInputError: a non-finite start pose, a bad clearance or timestep (naming the field).
@@ -204,6 +206,7 @@ class MujocoRobot(Robot):
         motion_limits: BaseMotionLimits | None = None,
         imu_noise: ImuNoise | None = None,
         depth_sampling: DepthSampling = "rays",
+        side_depth: SideDepthConfig | None = GO1_SIDE_DEPTH,
     ) -> None:
         if fidelity not in FIDELITIES:
             raise ValueError(f"fidelity must be one of {FIDELITIES}, got {fidelity!r}")
@@ -251,6 +254,13 @@ class MujocoRobot(Robot):
         )
         self._object_of_geom = object_of_geom
         self._camera: RgbdCamera | None = None
+        self._side_depth = (
+            None
+            if side_depth is None
+            else SideDepthCameras(
+                self.model, config=side_depth, exclude_body_id=self._trunk_body, robot_geoms=self._robot_geoms
+            )
+        )
         self._optical_to_base = self._camera_config.optical_to_base()
         # Kinematic: x, y, yaw; dynamic: the free joint's position and quaternion.
         self._pose_coordinates = 3 if fidelity == "kinematic" else 7
@@ -622,6 +632,28 @@ class MujocoRobot(Robot):
             stamp_s=self.now_s(),
             segmentation=None,
         )
+
+    def observe_side_depth(self, *, pixel_grids: Sequence[PixelGrid] | None = None) -> list[Observation]:
+        """The flank cameras' depth (``robots.side_depth``), ray cast at ``pixel_grids`` (all pixels when
+        None); none when the robot was built with ``side_depth=None``."""
+        if self._side_depth is None:
+            return []
+        mujoco.mj_kinematics(self.model, self.data)
+        grids = pixel_grids if pixel_grids is not None else [PixelGrid(stride=1)]
+        frames = self._side_depth.measure(self.data, self._base_transform(), pixel_grids=grids)
+        pose, stamp = self.base_pose(), self.now_s()
+        return [
+            Observation(
+                rgb=np.empty((0, 0, 3), dtype=np.uint8),
+                depth_m=depth,
+                intrinsics=self._side_depth.intrinsics,
+                camera_to_world=camera_to_world,
+                base_pose=pose,
+                stamp_s=stamp,
+                segmentation=None,
+            )
+            for depth, camera_to_world in frames.values()
+        ]
 
     def teleport(self, pose: Pose2D) -> None:
         """Move the base to ``pose`` at once, at rest (for view sampling and tests; not part of ``Robot``).

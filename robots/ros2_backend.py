@@ -71,7 +71,14 @@ from robots.ros2_messages import (
     pose_to_transform,
     stamp_to_ns,
 )
-from robots.ros2_profile import SENSOR_STREAMS, Ros2Profile, TopicQos, load_ros2_profile
+from robots.ros2_profile import (
+    SENSOR_STREAMS,
+    SIDE_DEPTH_STREAMS,
+    SIDES,
+    Ros2Profile,
+    TopicQos,
+    load_ros2_profile,
+)
 from robots.ros2_sim_protocol import (
     CAMERA_REQUEST_TOPIC,
     HEARTBEAT_TOPIC,
@@ -233,8 +240,12 @@ class Ros2Robot(Robot):
         self.profile = profile or load_ros2_profile()
         self.simulation = simulation
         self._use_sim_time = self.profile.use_sim_time or simulation
+        # The flank depth cameras: on a robot where the profile enables them; in simulation where the
+        # bridge announces them (``_on_scene``).
+        self._side_depth = self.profile.side_depth.enabled and not simulation
         self._spec = load_go1_spec()
         self._optical_to_base = self.profile.optical_to_base()
+        self._side_optical_to_base = {side: self.profile.side_optical_to_base(side) for side in SIDES}
         self._twist_msg_type = TwistMsg
         # Built once and refilled per step (publish copies it): building a TwistStamped costs as much as
         # filling it.
@@ -333,6 +344,12 @@ class Ros2Robot(Robot):
         subscribe(
             types["color_info"], topics.color_info, self._store("color_info"), qos_profile(qos.color_info)
         )
+        if self._side_depth:
+            for stream in SIDE_DEPTH_STREAMS:
+                kind = types["color_info"] if stream.endswith("info") else types["depth_image"]
+                subscribe(
+                    kind, self.profile.topic_of(stream), self._store(stream), qos_profile(qos.side_depth)
+                )
         for stream in ("color_image", "depth_image"):
             subscribe(
                 types[stream],
@@ -500,6 +517,7 @@ class Ros2Robot(Robot):
             return
         lockstep = info.mode == "lockstep"
         if self._simulation_info is None:  # latched: once per subscription, but never subscribe twice
+            self._side_depth = info.side_depth
             if lockstep:
                 from robots.ros2_pump import SubscriptionPump
 
@@ -529,7 +547,7 @@ class Ros2Robot(Robot):
     def _watched_streams(self) -> tuple[str, ...]:
         if self.lockstep:  # camera frames come on request only
             return ("odom", "imu", "joint_states")
-        return SENSOR_STREAMS
+        return SENSOR_STREAMS + (SIDE_DEPTH_STREAMS if self._side_depth else ())
 
     def _topic_of(self, stream: str) -> str:
         """The topic a stream arrives on (in lockstep, odometry comes on ``/sim/state``)."""
@@ -762,14 +780,18 @@ class Ros2Robot(Robot):
     def _request_frame(self, request: CameraRequest) -> None:
         """Lockstep: ask the bridge to render now and wait for the frames (call with the lock held)."""
         now = self._now_ns()
-        wanted = ["color_info", "depth_image"] + (
-            ["color_image", "segmentation"] if request.kind == "full" else []
-        )
+        if request.kind == "side":
+            wanted = list(SIDE_DEPTH_STREAMS)
+        else:
+            wanted = ["color_info", "depth_image"] + (
+                ["color_image", "segmentation"] if request.kind == "full" else []
+            )
         seen = {stream: self._arrivals[stream] for stream in wanted}
         msg = self._string_msg_type()
         msg.data = encode_camera_request(request)
         self._request_pub.publish(msg)
-        deadline = max(self.profile.deadline_of("depth_image"), LOCKSTEP_REPLY_MIN_S)
+        image = SIDE_DEPTH_STREAMS[0] if request.kind == "side" else "depth_image"
+        deadline = max(self.profile.deadline_of(image), LOCKSTEP_REPLY_MIN_S)
 
         def arrived() -> bool:
             return all(self._arrivals[s] > seen[s] and self._latest[s].stamp_ns == now for s in wanted)
@@ -848,6 +870,50 @@ class Ros2Robot(Robot):
                 self._request_frame(CameraRequest(kind="depth", grids=grids))
             _, depth, _ = self._latest_pair(need_color=False)
             return self._observation(None, depth, None)
+
+    def observe_side_depth(self, *, pixel_grids: Sequence[PixelGrid] | None = None) -> list[Observation]:
+        """The flank cameras' latest depth, each with the pose at its stamp (lockstep: measured now at
+        ``pixel_grids``); none where they are not used (``side_depth`` in the profile, or the bridge's
+        announcement)."""
+        if not self._side_depth:
+            return []
+        with self._lock:
+            self._raise_if_halted()
+            if self.lockstep:
+                grids = None if pixel_grids is None else tuple(pixel_grids)
+                self._request_frame(CameraRequest(kind="side", grids=grids))
+            return [self._side_observation(side) for side in SIDES]
+
+    def _side_observation(self, side: str) -> Observation:
+        """Convert one flank camera's latest depth image (call with the lock held)."""
+        image_stream, info_stream = f"{side}_depth_image", f"{side}_depth_info"
+        image, info = self._latest.get(image_stream), self._latest.get(info_stream)
+        if image is None or info is None:
+            missing = image_stream if image is None else info_stream
+            raise RobotHalted(self.profile.topic_of(missing), "no message yet")
+        try:
+            intrinsics = camera_info_to_intrinsics(info.msg)
+        except MessageError as error:
+            self._halt_locked(self.profile.topic_of(info_stream), str(error))
+        try:
+            depth_m = image_to_depth_m(image.msg)
+        except MessageError as error:
+            self._halt_locked(self.profile.topic_of(image_stream), str(error))
+        if depth_m.shape != (intrinsics.height_px, intrinsics.width_px):
+            self._halt_locked(
+                self.profile.topic_of(image_stream),
+                f"depth {depth_m.shape} disagrees with camera info {intrinsics.height_px}x{intrinsics.width_px}",
+            )
+        base_to_odom = self._pose_at(image.stamp_ns)
+        return Observation(
+            rgb=np.empty((0, 0, 3), dtype=np.uint8),
+            depth_m=depth_m,
+            intrinsics=intrinsics,
+            camera_to_world=base_to_odom @ self._side_optical_to_base[side],
+            base_pose=pose2d_of(base_to_odom),
+            stamp_s=self._now_s_locked() if self.lockstep else (image.stamp_ns - self._epoch_ns) * 1e-9,
+            segmentation=None,
+        )
 
     # ------------------------------------------------------------------ state
 

@@ -35,6 +35,11 @@ GO1_PROFILE_PATH = Path(__file__).resolve().parent / "go1" / "ros2.yaml"
 
 #: The sensor streams the backend watches, by their key in ``topics``.
 SENSOR_STREAMS: tuple[str, ...] = ("odom", "imu", "joint_states", "color_image", "color_info", "depth_image")
+#: The flank depth cameras' streams (``side_depth``): ``<side>_depth_image`` and ``<side>_depth_info``.
+SIDES: tuple[str, ...] = ("left", "right")
+SIDE_DEPTH_STREAMS: tuple[str, ...] = tuple(
+    f"{side}_depth_{kind}" for side in SIDES for kind in ("image", "info")
+)
 
 
 class ProfileError(ConfigError):
@@ -103,6 +108,8 @@ class QosTable:
     color_info: TopicQos = _qos("reliable", 5)
     depth_image: TopicQos = _qos("reliable", 5)
     clock: TopicQos = _qos("best_effort", 1)
+    side_depth: TopicQos = _qos("reliable", 5)
+    """Both flank cameras' images and camera infos."""
 
 
 def _deadline(seconds: float) -> Any:
@@ -120,6 +127,8 @@ class Deadlines:
     color_image: float = _deadline(1.0)
     color_info: float = _deadline(1.0)
     depth_image: float = _deadline(1.0)
+    side_depth: float = _deadline(1.0)
+    """Each flank camera's image and camera info, where they are used."""
     startup_s: float = _deadline(15.0)
     """How long the backend waits for every sensor's first message (and, in simulation, the bridge)."""
 
@@ -162,6 +171,63 @@ class Camera:
     stamps both with the colour frame's time)."""
 
 
+#: The simulated flank cameras' mount (``robots.side_depth.SideDepthConfig``'s defaults; a test checks
+#: that they agree): on the trunk's flank, 0.085 m off the centre line, pitched 40 deg down.
+_SIDE_LATERAL_M = 0.085
+_SIDE_PITCH_RAD = math.radians(40.0)
+
+
+def _side_mount(sign: float) -> Any:
+    return field(
+        default_factory=lambda: CameraMount(
+            x_m=0.0,
+            y_m=sign * _SIDE_LATERAL_M,
+            z_m=0.0,
+            pitch_rad=_SIDE_PITCH_RAD,
+            yaw_rad=sign * math.pi / 2,
+        )
+    )
+
+
+@dataclass(frozen=True)
+class LeftCamera:
+    """The left flank depth camera: its depth image (16UC1 millimetres, 0 = no depth), camera info, optical
+    frame id and mount (base_link -> its camera link, as :class:`CameraMount`)."""
+
+    image: str = "/body_camera/left/depth/image_raw"
+    info: str = "/body_camera/left/depth/camera_info"
+    frame: str = "body_camera_left_optical_frame"
+    mount: CameraMount = _side_mount(1.0)
+
+
+@dataclass(frozen=True)
+class RightCamera:
+    """The right flank depth camera (as :class:`LeftCamera`, mirrored)."""
+
+    image: str = "/body_camera/right/depth/image_raw"
+    info: str = "/body_camera/right/depth/camera_info"
+    frame: str = "body_camera_right_optical_frame"
+    mount: CameraMount = _side_mount(-1.0)
+
+
+@dataclass(frozen=True)
+class SideDepth:
+    """The flank depth cameras (``robots/side_depth.py``): the floor beside the body, for the costmap.
+
+    On a real robot they are used when ``enabled``; the snt-arg/unitree_ros driver does not publish the
+    Go1's body cameras, so the shipped profile leaves them off (docs/ros2.md says what to run). The
+    simulation bridge always simulates and publishes them on these topics and says so on ``/sim/scene``;
+    its executive then uses them whatever ``enabled`` says, as the in-process run does.
+    """
+
+    enabled: bool = False
+    left: LeftCamera = field(default_factory=LeftCamera)
+    right: RightCamera = field(default_factory=RightCamera)
+
+    def camera(self, side: str) -> LeftCamera | RightCamera:
+        return self.left if side == "left" else self.right
+
+
 @dataclass(frozen=True)
 class Ros2Profile:
     """A robot on ROS 2 (see the module docstring). ``source`` names the file it came from."""
@@ -175,15 +241,27 @@ class Ros2Profile:
     deadlines_s: Deadlines = field(default_factory=Deadlines)
     command: Command = field(default_factory=Command)
     camera: Camera = field(default_factory=Camera)
+    side_depth: SideDepth = field(default_factory=SideDepth)
     source: str = "<defaults>"
 
     def deadline_of(self, stream: str) -> float:
-        """The silence deadline (s) of a sensor stream (a key of :data:`SENSOR_STREAMS`)."""
+        """The silence deadline (s) of a sensor stream (a key of :data:`SENSOR_STREAMS` or
+        :data:`SIDE_DEPTH_STREAMS`)."""
+        if stream in SIDE_DEPTH_STREAMS:
+            return float(self.deadlines_s.side_depth)
         return float(getattr(self.deadlines_s, stream))
 
     def topic_of(self, stream: str) -> str:
         """The topic name of a stream key."""
+        if stream in SIDE_DEPTH_STREAMS:
+            side, _, kind = stream.split("_")
+            return str(getattr(self.side_depth.camera(side), kind))
         return str(getattr(self.topics, stream))
+
+    def side_optical_to_base(self, side: str) -> FloatArray:
+        """T_base<-optical (4x4) of a flank camera."""
+        m = self.side_depth.camera(side).mount
+        return optical_to_base((m.x_m, m.y_m, m.z_m), m.roll_rad, m.pitch_rad, m.yaw_rad)
 
     def camera_link_to_base(self) -> FloatArray:
         """T_base<-camera_link (4x4) from the mount."""
@@ -219,8 +297,9 @@ def _check_strings(value: Any, where: str, prefix: str) -> None:
             _check_strings(item, where, key)
         elif f.type in ("str", str) and (not isinstance(item, str) or not item.strip()):
             raise ProfileError(f"{where}: key '{key}' must be a non-empty string, got {item!r}")
-    if isinstance(value, Topics):
-        for f in dataclasses.fields(value):
+    if isinstance(value, Topics | LeftCamera | RightCamera):
+        names = [f for f in dataclasses.fields(value) if f.name != "frame" and f.type in ("str", str)]
+        for f in names:
             name = getattr(value, f.name)
             if not name.startswith("/") or " " in name:
                 raise ProfileError(
@@ -257,6 +336,8 @@ def load_ros2_profile(path: str | Path | None = None) -> Ros2Profile:
 __all__ = [
     "GO1_PROFILE_PATH",
     "SENSOR_STREAMS",
+    "SIDES",
+    "SIDE_DEPTH_STREAMS",
     "ProfileError",
     "Ros2Profile",
     "load_ros2_profile",

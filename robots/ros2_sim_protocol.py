@@ -7,7 +7,7 @@ simulation has travels here, never on those:
 | --- | --- | --- | --- |
 | ``/sim/scene`` | std_msgs/String (JSON), transient local | bridge -> executive | the scene's catalogue for the perception emulator: object ids, labels, categories, roles, sizes; no positions |
 | ``/sim/step`` | geometry_msgs/TwistStamped | executive -> bridge | lockstep: step the world to ``header.stamp`` applying ``twist`` |
-| ``/sim/camera/request`` | std_msgs/String (JSON) | executive -> bridge | lockstep: render the camera now (``full``, or ``depth`` at pixel grids) |
+| ``/sim/camera/request`` | std_msgs/String (JSON) | executive -> bridge | lockstep: render the camera now (``full``, or ``depth`` at pixel grids), or measure the flank cameras (``side``, at pixel grids) |
 | ``/sim/camera/segmentation`` | sensor_msgs/Image 16UC1 (id + 1) | bridge -> executive | the segmentation of each full frame, stamped as the colour frame |
 | ``/sim/outcome`` | std_msgs/String (JSON), transient local | executive -> bridge | the mission's declared outcome and confirmed targets, for the bridge's scoring |
 | ``/sim/time`` | std_msgs/Float64 | bridge -> executive | the simulator's clock in float seconds (``/clock`` is its nanosecond rounding); the lockstep executive's clock, so that its time comparisons are the in-process run's to the bit |
@@ -47,7 +47,8 @@ BridgeMode = Literal["lockstep", "realtime"]
 #: in-process run's semantics, over DDS); ``realtime``: it runs on the wall clock like a robot.
 BRIDGE_MODES: tuple[str, ...] = ("lockstep", "realtime")
 
-FrameKind = Literal["full", "depth"]
+FrameKind = Literal["full", "depth", "side"]
+FRAME_KINDS: tuple[str, ...] = ("full", "depth", "side")
 
 
 class SimProtocolError(InvalidInputError):
@@ -63,12 +64,14 @@ class SimulationInfo:
         control_period_s: the world's control period (one step).
         seed: the episode's seed (the emulator's noise is seeded with it in-process too).
         scene: the catalogue (positions withheld).
+        side_depth: the bridge publishes the flank depth cameras on the profile's ``side_depth`` topics.
     """
 
     mode: BridgeMode
     control_period_s: float
     seed: int
     scene: SceneSpec
+    side_depth: bool = False
 
 
 def _object_entry(obj: SceneObject) -> dict[str, Any]:
@@ -87,13 +90,16 @@ def _object_entry(obj: SceneObject) -> dict[str, Any]:
     }
 
 
-def encode_simulation_info(scene: SceneSpec, *, mode: BridgeMode, control_period_s: float, seed: int) -> str:
+def encode_simulation_info(
+    scene: SceneSpec, *, mode: BridgeMode, control_period_s: float, seed: int, side_depth: bool
+) -> str:
     """The ``/sim/scene`` payload: the scene's catalogue without positions, yaws, bounds or parts."""
     return json.dumps(
         {
             "mode": mode,
             "control_period_s": control_period_s,
             "seed": seed,
+            "side_depth": side_depth,
             "scene": {
                 "name": scene.name,
                 "title": scene.title,
@@ -172,7 +178,11 @@ def decode_simulation_info(text: str) -> SimulationInfo:
         outdoor=bool(_field(scene_data, "outdoor", bool, topic)),
     )
     return SimulationInfo(
-        mode=mode, control_period_s=period, seed=int(_field(data, "seed", int, topic)), scene=scene
+        mode=mode,
+        control_period_s=period,
+        seed=int(_field(data, "seed", int, topic)),
+        scene=scene,
+        side_depth=bool(_field(data, "side_depth", bool, topic)),
     )
 
 
@@ -250,7 +260,8 @@ def decode_state(values: Sequence[float]) -> SimState:
 
 @dataclass(frozen=True)
 class CameraRequest:
-    """A lockstep render request: ``full`` (colour, depth, segmentation) or ``depth`` at ``grids`` only."""
+    """A lockstep render request: ``full`` (colour, depth, segmentation), ``depth`` at ``grids`` only, or
+    ``side``: the flank cameras' depth at ``grids``."""
 
     kind: FrameKind
     grids: tuple[PixelGrid, ...] | None = None
@@ -265,8 +276,8 @@ def decode_camera_request(text: str) -> CameraRequest:
     topic = CAMERA_REQUEST_TOPIC
     data = _load(text, topic)
     kind = _field(data, "kind", str, topic)
-    if kind not in ("full", "depth"):
-        raise SimProtocolError(f"{topic}: field 'kind' must be 'full' or 'depth', got {kind!r}")
+    if kind not in FRAME_KINDS:
+        raise SimProtocolError(f"{topic}: field 'kind' must be one of {list(FRAME_KINDS)}, got {kind!r}")
     raw = data.get("grids")
     if raw is None:
         return CameraRequest(kind=kind)
@@ -297,6 +308,7 @@ def decode_outcome(text: str) -> tuple[str, list[dict[str, Any]]]:
 
 __all__ = [
     "BRIDGE_MODES",
+    "FRAME_KINDS",
     "CAMERA_REQUEST_TOPIC",
     "HEARTBEAT_PERIOD_S",
     "HEARTBEAT_TOPIC",

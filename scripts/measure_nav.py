@@ -7,6 +7,9 @@ For each scene, the Go1 (kinematic) drives from the seed's start to its goal wit
 wall clock. Prints one JSON object (medians and p99 in ms).
 
     MUJOCO_GL=egl .venv/bin/python scripts/measure_nav.py --scenes office,road,warehouse_a --seed 1000
+
+With the flank depth cameras (the default robot) each costmap update integrates their frames with the
+head camera's; ``--no-side-depth`` times the head camera alone.
 """
 
 from __future__ import annotations
@@ -24,6 +27,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from robots.go1 import go1_footprint
 from robots.mujoco_backend import MujocoRobot
+from robots.side_depth import GO1_SIDE_DEPTH
 from semexp_bt.app.components import PLANNERS
 from semexp_bt.nav.costmap import Costmap, CostmapConfig
 from semexp_bt.nav.global_planner import GlobalPlanner
@@ -32,12 +36,20 @@ from sims.episodes import sample_episode
 from sims.geodesic import GeodesicOracle
 
 
-def walk(scene_name: str, seed: int, controller_name: str, seconds: float) -> dict[str, list[float]]:
+def walk(
+    scene_name: str, seed: int, controller_name: str, seconds: float, *, side_depth: bool
+) -> dict[str, list[float]]:
     scene = build_scene(scene_name, seed=seed)
     oracle = GeodesicOracle(scene)
     episode = sample_episode(scene, seed=seed, oracle=oracle)
     goal = oracle.nearest_point_on_object((episode.start.x_m, episode.start.y_m), scene.goal.object_id)
-    robot = MujocoRobot(scene=scene, fidelity="kinematic", start_pose=episode.start, seed=seed)
+    robot = MujocoRobot(
+        scene=scene,
+        fidelity="kinematic",
+        start_pose=episode.start,
+        seed=seed,
+        side_depth=GO1_SIDE_DEPTH if side_depth else None,
+    )
     costmap = Costmap(
         CostmapConfig(), footprint=go1_footprint(), origin_xy=(episode.start.x_m, episode.start.y_m)
     )
@@ -48,9 +60,13 @@ def walk(scene_name: str, seed: int, controller_name: str, seconds: float) -> di
         for tick in range(int(seconds / 0.02)):
             now = robot.now_s()
             if tick % 8 == 0:  # 6.25 Hz
-                frame = robot.observe_depth(pixel_grids=[costmap.sampled_pixels])
+                pixels = [costmap.sampled_pixels]
+                frames = [
+                    robot.observe_depth(pixel_grids=pixels),
+                    *robot.observe_side_depth(pixel_grids=pixels),
+                ]
                 c0, w0 = time.thread_time(), time.perf_counter()
-                costmap.integrate(frame)
+                costmap.integrate(*frames)
                 out["costmap_cpu"].append(time.thread_time() - c0)
                 out["costmap_wall"].append(time.perf_counter() - w0)
             if tick % 4 == 0:  # 12.5 Hz
@@ -83,10 +99,15 @@ def main() -> int:
     parser.add_argument("--seed", type=int, default=1000)
     parser.add_argument("--controller", default="rpp", choices=sorted(PLANNERS))
     parser.add_argument("--seconds", type=float, default=60.0)
+    parser.add_argument(
+        "--no-side-depth", action="store_true", help="the head camera only (no flank depth cameras)"
+    )
     args = parser.parse_args()
     samples: dict[str, list[float]] = {}
     for name in args.scenes.split(","):
-        for key, values in walk(name, args.seed, args.controller, args.seconds).items():
+        for key, values in walk(
+            name, args.seed, args.controller, args.seconds, side_depth=not args.no_side_depth
+        ).items():
             samples.setdefault(key, []).extend(values)
     report = {
         key: {

@@ -35,16 +35,9 @@ def rule_counts(controller: Any, costmap: Any, pose: Any, velocity: Any, plan: A
     """How many of the DWB sampler's trajectories each rule admits, alone and together (in the order
     ``admissible`` applies them)."""
     from semexp_bt.nav import dwb
-    from semexp_bt.nav.controller import (
-        discs_known,
-        footprint_clearance,
-        path_progress_index,
-        rollout,
-        sweeps_unseen,
-    )
+    from semexp_bt.nav.controller import path_progress_index, rollout, rule_masks
 
     cfg = controller.config
-    rules = cfg.rules
     here = np.array([pose.x_m, pose.y_m])
     remaining = dwb._remaining_length(plan.path_xy, path_progress_index(plan.path_xy, here, 0), here)
     max_forward = min(
@@ -54,36 +47,12 @@ def rule_counts(controller: Any, costmap: Any, pose: Any, velocity: Any, plan: A
     states, commands = rollout(
         pose, velocity, targets, limits=cfg.limits, horizon_s=cfg.horizon_s, dt_s=cfg.dt_s
     )
-    x, y, yaw = states[..., 0], states[..., 1], states[..., 2]
-    clearance = footprint_clearance(costmap, x, y, yaw)
-    least = clearance.min(axis=1)
-    now = float(footprint_clearance(costmap, here[:1], here[1:], np.array([pose.yaw_rad]))[0])
-    if now >= rules.min_clearance_m:
-        keeps_clear = least >= rules.min_clearance_m
-    else:
-        start = np.full((len(states), 1), now)
-        running = np.minimum.accumulate(np.concatenate([start, clearance], axis=1), axis=1)
-        keeps_clear = (clearance >= running[:, :-1] - 1e-4).all(axis=1) | (least >= rules.min_clearance_m)
-    previous = np.concatenate([np.tile(here, (len(states), 1, 1)), states[:, :-1, :2]], axis=1)
-    step = np.hypot(*(states[..., :2] - previous).transpose(2, 0, 1))
-    unknown = ~costmap.known_at(states[..., :2])
-    within_allowance = (step * unknown).sum(axis=1) <= rules.unknown_allowance_m
-    backward = (commands[..., 0] < -1e-3).any(axis=1)
-    backs_onto_known = np.ones(len(states), dtype=bool)
-    backs_onto_known[np.flatnonzero(backward)] = discs_known(
-        costmap, x[backward], y[backward], yaw[backward]
-    ).all(axis=1)
-    sweeps_seen = ~sweeps_unseen(costmap, pose, states, spacing_m=rules.outline_spacing_m)
+    masks, now = rule_masks(costmap, pose, states, commands, rules=cfg.rules)
     not_oscillating = ~controller.oscillation.forbidden(pose, targets)
     together = np.ones(len(states), dtype=bool)
     counts = {"sampled": len(states), "clearance_now_mm": round(now * 1e3)}
-    for name, passed in (
-        ("keeps clearance", keeps_clear),
-        ("unseen travel within allowance", within_allowance),
-        ("backs up onto known cells", backs_onto_known),
-        ("sweeps observed cells only", sweeps_seen),
-        ("not oscillating", not_oscillating),
-    ):
+    masks["not oscillating"] = not_oscillating
+    for name, passed in masks.items():
         together &= passed
         counts[f"{name}: alone"] = int(passed.sum())
         counts[f"{name}: with the rules before"] = int(together.sum())

@@ -55,7 +55,7 @@ from robots.ros2_messages import (
     stamp_to_ns,
     twist_from_msg,
 )
-from robots.ros2_profile import Ros2Profile, load_ros2_profile
+from robots.ros2_profile import SIDE_DEPTH_STREAMS, SIDES, Ros2Profile, load_ros2_profile
 from robots.ros2_sim_protocol import (
     CAMERA_REQUEST_TOPIC,
     HEARTBEAT_PERIOD_S,
@@ -74,6 +74,7 @@ from robots.ros2_sim_protocol import (
     encode_simulation_info,
     encode_state,
 )
+from robots.side_depth import SideDepthConfig
 from semexp_bt.core.metrics import DEFAULT_CLEARANCE_M, DEFAULT_SUCCESS_RADIUS_M
 from semexp_bt.core.types import InvalidInputError, Observation, Twist
 from sims.catalogue import build_scene
@@ -98,6 +99,7 @@ SILENCEABLE: tuple[str, ...] = (
     "color_info",
     "depth_image",
     "clock",
+    *SIDE_DEPTH_STREAMS,
 )
 
 
@@ -158,6 +160,29 @@ def camera_config_for(profile: Ros2Profile) -> CameraConfig:
     )
 
 
+def side_depth_config_for(profile: Ros2Profile) -> SideDepthConfig:
+    """The simulated flank cameras mounted where the profile's ``side_depth`` says: mirror images of each
+    other on the trunk's flanks, looking straight out to the side and pitched only (as simulated)."""
+    left, right = profile.side_depth.left.mount, profile.side_depth.right.mount
+    mirrored = (
+        left.x_m == right.x_m == 0.0
+        and left.roll_rad == right.roll_rad == 0.0
+        and left.y_m == -right.y_m > 0.0
+        and left.z_m == right.z_m
+        and left.pitch_rad == right.pitch_rad
+        and left.yaw_rad == -right.yaw_rad == math.pi / 2
+    )
+    if not mirrored:
+        raise InvalidInputError(
+            f"{profile.source}: the simulated flank cameras are a mirrored pair at x 0, looking 90 deg "
+            "sideways and pitched only: 'side_depth.left.mount' and 'side_depth.right.mount' must mirror "
+            "each other (y_m opposite, yaw_rad +-pi/2, roll_rad 0)"
+        )
+    return SideDepthConfig(
+        mount_lateral_m=left.y_m, mount_height_m=left.z_m, mount_pitch_down_deg=math.degrees(left.pitch_rad)
+    )
+
+
 class SimBridge:
     """The bridged world (see the module docstring). Build it, :meth:`run` it, read the result."""
 
@@ -174,6 +199,7 @@ class SimBridge:
             seed=options.seed,
             camera=camera_config_for(self.profile),
             control_dt_s=CONTROL_PERIOD_S,
+            side_depth=side_depth_config_for(self.profile),
         )
         self._gait: Callable[[Robot, Twist], None] | None = None
         if options.fidelity == "dynamic":
@@ -237,6 +263,14 @@ class SimBridge:
         self._pubs["segmentation"] = self.node.create_publisher(
             Image, SEGMENTATION_TOPIC, qos_profile(SIM_QOS)
         )
+        for side in SIDES:
+            camera = self.profile.side_depth.camera(side)
+            self._pubs[f"{side}_depth_image"] = self.node.create_publisher(
+                Image, camera.image, qos_profile(qos.side_depth)
+            )
+            self._pubs[f"{side}_depth_info"] = self.node.create_publisher(
+                CameraInfo, camera.info, qos_profile(qos.side_depth)
+            )
         self._pubs["sim_time"] = self.node.create_publisher(Float64, TIME_TOPIC, qos_profile(SIM_QOS))
         self._types["sim_time"] = Float64
         self._pubs["state"] = self.node.create_publisher(Float64MultiArray, STATE_TOPIC, qos_profile(SIM_QOS))
@@ -256,7 +290,11 @@ class SimBridge:
             subscribe(String, CAMERA_REQUEST_TOPIC, self._on_camera_request, qos_profile(SIM_QOS))
         announcement = String()
         announcement.data = encode_simulation_info(
-            self.scene, mode=self.options.mode, control_period_s=CONTROL_PERIOD_S, seed=self.options.seed
+            self.scene,
+            mode=self.options.mode,
+            control_period_s=CONTROL_PERIOD_S,
+            seed=self.options.seed,
+            side_depth=True,
         )
         scene_pub.publish(announcement)
         self._scene_pub = scene_pub  # latched: keep the publisher alive
@@ -348,8 +386,26 @@ class SimBridge:
             fill_stamp(clock.clock, stamp_s)
             self._publish("clock", clock)
 
+    def publish_side_depth(self, request: CameraRequest) -> None:
+        """Measure the flank cameras now (at the request's pixel grids) and publish each one's camera info
+        and depth image."""
+        stamp_s = self._now_ns() * 1e-9
+        frames = self.robot.observe_side_depth(pixel_grids=request.grids)
+        for side, frame in zip(SIDES, frames, strict=True):
+            optical = self.profile.side_depth.camera(side).frame
+            info = self._types["color_info"]()
+            fill_camera_info(info, frame.intrinsics, stamp_s=stamp_s, frame_id=optical)
+            self._publish(f"{side}_depth_info", info)
+            depth = self._types["depth_image"]()
+            fill_depth_image(depth, frame.depth_m, stamp_s=stamp_s, frame_id=optical)
+            self._publish(f"{side}_depth_image", depth)
+
     def publish_frame(self, request: CameraRequest) -> None:
-        """Render the camera now and publish camera info, depth and (full frames) colour and segmentation."""
+        """Render the camera now and publish camera info, depth and (full frames) colour and segmentation;
+        a ``side`` request measures the flank cameras instead."""
+        if request.kind == "side":
+            self.publish_side_depth(request)
+            return
         stamp_s = self._now_ns() * 1e-9
         optical = self.profile.frames.camera_optical
         observation: Observation
@@ -507,6 +563,7 @@ class SimBridge:
             self.publish_state()
             if self._steps % frame_every == 0:
                 self.publish_frame(CameraRequest(kind="full"))
+                self.publish_side_depth(CameraRequest(kind="side"))
             # Behind schedule (a slow render), simulated time runs slower than the wall: no catch-up burst.
             next_step = max(next_step + CONTROL_PERIOD_S, time.monotonic() - CONTROL_PERIOD_S)
 

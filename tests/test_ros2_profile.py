@@ -40,8 +40,10 @@ from robots.ros2_sim_protocol import (
     encode_simulation_info,
     encode_state,
 )
-from semexp_bt.core.types import PixelGrid, Pose2D, Twist
+from robots.side_depth import SideDepthConfig
+from semexp_bt.core.types import InvalidInputError, PixelGrid, Pose2D, Twist
 from sims.catalogue import build_scene
+from sims.ros2_bridge import side_depth_config_for
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -78,6 +80,13 @@ def test_the_shipped_go1_profile_states_every_key_at_its_default() -> None:
         ({"deadlines_s": {"color_image": 0}}, "key 'deadlines_s.color_image' must lie in"),
         ({"command": {"rate_hz": 10}}, "key 'command.rate_hz' must lie in [20.0"),
         ({"camera": {"mount": {"pitch_rad": "down"}}}, "key 'camera.mount.pitch_rad' must be a number"),
+        (
+            {"side_depth": {"left": {"image": "depth"}}},
+            "key 'side_depth.left.image' must be an absolute topic",
+        ),
+        ({"side_depth": {"right": {"frame": ""}}}, "key 'side_depth.right.frame' must be a non-empty string"),
+        ({"side_depth": {"enabled": "yes"}}, "key 'side_depth.enabled' must be"),
+        ({"side_depth": {"middle": {}}}, "unknown key 'side_depth.middle'"),
         ({"source": "x"}, "unknown key 'source'"),
         (["not", "a", "mapping"], "'<root>' must be a mapping"),
     ],
@@ -135,12 +144,32 @@ def test_the_profile_mount_places_the_optical_frame_where_the_simulated_camera_i
     np.testing.assert_allclose(from_profile, simulated, atol=1e-6)
 
 
+def test_the_profile_side_mounts_place_the_flank_cameras_where_the_simulated_ones_are() -> None:
+    profile = load_ros2_profile()
+    simulated = SideDepthConfig()
+    for side in ("left", "right"):
+        np.testing.assert_array_equal(profile.side_optical_to_base(side), simulated.optical_to_base(side))
+    assert side_depth_config_for(profile) == simulated
+    assert profile.topic_of("right_depth_info") == "/body_camera/right/depth/camera_info"
+    assert profile.deadline_of("left_depth_image") == profile.deadlines_s.side_depth
+    assert not profile.side_depth.enabled, "the unitree_ros driver does not publish the body cameras"
+
+
+def test_the_bridge_refuses_flank_mounts_it_cannot_simulate() -> None:
+    lopsided = profile_from_dict({"side_depth": {"right": {"mount": {"y_m": -0.1}}}}, where="my_robot.yaml")
+    with pytest.raises(
+        InvalidInputError, match=r"my_robot.yaml: .*'side_depth.left.mount' and 'side_depth.right.mount'"
+    ):
+        side_depth_config_for(lopsided)
+
+
 def test_the_scene_announcement_withholds_where_things_are() -> None:
     scene = build_scene("showroom", seed=9)
     info = decode_simulation_info(
-        encode_simulation_info(scene, mode="lockstep", control_period_s=0.02, seed=9)
+        encode_simulation_info(scene, mode="lockstep", control_period_s=0.02, seed=9, side_depth=True)
     )
     assert info.mode == "lockstep" and info.seed == 9 and info.control_period_s == 0.02
+    assert info.side_depth
     assert [o.object_id for o in info.scene.objects] == [o.object_id for o in scene.objects]
     assert [(o.label, o.category, o.role, o.size_m) for o in info.scene.objects] == [
         (o.label, o.category, o.role, o.size_m) for o in scene.objects
@@ -153,6 +182,8 @@ def test_the_scene_announcement_withholds_where_things_are() -> None:
 def test_camera_requests_and_outcomes_round_trip_and_bad_payloads_are_named() -> None:
     request = CameraRequest(kind="depth", grids=(PixelGrid(stride=8, offset=4), PixelGrid(stride=4)))
     assert decode_camera_request(encode_camera_request(request)) == request
+    side = CameraRequest(kind="side", grids=(PixelGrid(stride=4, offset=2),))
+    assert decode_camera_request(encode_camera_request(side)) == side
     assert decode_camera_request(encode_camera_request(CameraRequest(kind="full"))) == CameraRequest(
         kind="full"
     )

@@ -24,8 +24,10 @@ same safety rules, stated and checked here:
   floor beside the robot that the narrow camera (54 degrees across, blind to the floor within 0.8 m of
   the base) may never have seen: an obstacle there is absent from the costmap, not lethal, so the
   clearance rule alone lets a corner sweep into it (the remaining contacts of ``ours`` in the first
-  round). Straight ahead the unknown band in front of the head is what the unseen-space allowance
-  governs; the start pose's turning circle is assumed free (:meth:`Costmap.assume_free_around`).
+  round). The flank depth cameras (``robots/side_depth.py``), where the robot has them, observe that
+  floor, so the rule then refuses only what nothing has seen. Straight ahead the unknown band in front
+  of the head is what the unseen-space allowance governs; the start pose's turning circle is assumed
+  free (:meth:`Costmap.assume_free_around`).
 - **Speed regulated by clearance**: below ``slow_clearance_m`` the speed is scaled down linearly to
   ``creep_fraction`` at ``min_clearance_m``, with the yaw rate, so the motion stays on the checked arc.
 - **Within what the gait tracks**: |v| <= 1 m/s forward, 0.5 m/s back, |omega| <= 1 rad/s (docs/gait.md),
@@ -207,38 +209,87 @@ def rollout(
     return np.stack([x, y, yaw], axis=-1), np.stack([v, w], axis=-1)
 
 
-def admissible(
-    costmap: Costmap, pose: Pose2D, states: FloatArray, commands: FloatArray, *, rules: SafetyRules
-) -> tuple[FloatArray, FloatArray]:
-    """The safety rules on rollouts ``(K, T, 3)``: a ``(K,)`` mask of admissible trajectories and their least
-    clearance ``(K,)``."""
-    x, y, yaw = states[..., 0], states[..., 1], states[..., 2]
-    clearance = footprint_clearance(costmap, x, y, yaw)
+#: The rules of :func:`admissible`, in the order it applies them (the names :func:`rule_masks` reports).
+RULE_NAMES = (
+    "keeps clearance",
+    "unseen travel within allowance",
+    "backs up onto known cells",
+    "sweeps observed cells only",
+)
+
+
+def _keeps_clearance(clearance: FloatArray, now_m: float, *, rules: SafetyRules) -> npt.NDArray[np.bool_]:
+    """Rollouts ``(K, T)`` of clearances that keep ``min_clearance_m``, or, from inside the margin already
+    (``now_m`` below it), never come closer than now, step by step."""
     least = clearance.min(axis=1)
-    now = float(
-        footprint_clearance(costmap, np.array([pose.x_m]), np.array([pose.y_m]), np.array([pose.yaw_rad]))[0]
+    if now_m >= rules.min_clearance_m:
+        return np.asarray(least >= rules.min_clearance_m)
+    running = np.minimum.accumulate(
+        np.concatenate([np.full((len(clearance), 1), now_m), clearance], axis=1), axis=1
     )
-    if now >= rules.min_clearance_m:
-        ok = least >= rules.min_clearance_m
-    else:  # inside the margin already: never closer than now, and never closer step by step
-        running = np.minimum.accumulate(
-            np.concatenate([np.full((len(states), 1), now), clearance], axis=1), axis=1
-        )
-        ok = (clearance >= running[:, :-1] - 1e-4).all(axis=1) | (least >= rules.min_clearance_m)
-    # Unseen space: travel of the base centre through unknown cells, forward motion.
+    return np.asarray((clearance >= running[:, :-1] - 1e-4).all(axis=1) | (least >= rules.min_clearance_m))
+
+
+def _within_unseen_allowance(
+    costmap: Costmap, pose: Pose2D, states: FloatArray, *, rules: SafetyRules
+) -> npt.NDArray[np.bool_]:
+    """Rollouts whose base centre travels at most ``unknown_allowance_m`` through never-observed cells."""
+    x, y = states[..., 0], states[..., 1]
     step = np.hypot(np.diff(np.concatenate([np.full((len(states), 1), pose.x_m), x], axis=1), axis=1),
                     np.diff(np.concatenate([np.full((len(states), 1), pose.y_m), y], axis=1), axis=1))  # fmt: skip
     unknown = ~costmap.known_at(np.stack([x, y], axis=-1))
-    ok &= (step * unknown).sum(axis=1) <= rules.unknown_allowance_m
-    backward = (commands[..., 0] < -1e-3).any(axis=1)
-    if backward.any():
-        known = discs_known(costmap, x[backward], y[backward], yaw[backward]).all(axis=1)
-        ok[np.flatnonzero(backward)[~known]] = False
+    return np.asarray((step * unknown).sum(axis=1) <= rules.unknown_allowance_m)
+
+
+def _backs_onto_known(costmap: Costmap, states: FloatArray, commands: FloatArray) -> npt.NDArray[np.bool_]:
+    """Rollouts that either never back up or keep every covering disc on observed cells."""
+    ok = np.ones(len(states), dtype=bool)
+    backward = np.flatnonzero((commands[..., 0] < -1e-3).any(axis=1))
+    if backward.size:
+        back = states[backward]
+        ok[backward] = discs_known(costmap, back[..., 0], back[..., 1], back[..., 2]).all(axis=1)
+    return ok
+
+
+def _clearances(costmap: Costmap, pose: Pose2D, states: FloatArray) -> tuple[FloatArray, float]:
+    """The footprint clearance at every state ``(K, T)``, and at ``pose`` now."""
+    clearance = footprint_clearance(costmap, states[..., 0], states[..., 1], states[..., 2])
+    now = footprint_clearance(costmap, np.array([pose.x_m]), np.array([pose.y_m]), np.array([pose.yaw_rad]))
+    return clearance, float(now[0])
+
+
+def admissible(
+    costmap: Costmap, pose: Pose2D, states: FloatArray, commands: FloatArray, *, rules: SafetyRules
+) -> tuple[npt.NDArray[np.bool_], FloatArray]:
+    """The safety rules on rollouts ``(K, T, 3)``: a ``(K,)`` mask of admissible trajectories and their least
+    clearance ``(K,)``. The sweep rule, the dearest, is checked on the survivors of the others only."""
+    clearance, now = _clearances(costmap, pose, states)
+    ok = _keeps_clearance(clearance, now, rules=rules)
+    ok &= _within_unseen_allowance(costmap, pose, states, rules=rules)
+    ok &= _backs_onto_known(costmap, states, commands)
     if rules.sweep_observed_only and ok.any():
         candidates = np.flatnonzero(ok)
         unseen = sweeps_unseen(costmap, pose, states[candidates], spacing_m=rules.outline_spacing_m)
         ok[candidates[unseen]] = False
-    return ok, least
+    return ok, clearance.min(axis=1)
+
+
+def rule_masks(
+    costmap: Costmap, pose: Pose2D, states: FloatArray, commands: FloatArray, *, rules: SafetyRules
+) -> tuple[dict[str, npt.NDArray[np.bool_]], float]:
+    """Each rule of :func:`admissible` alone, over every rollout (``RULE_NAMES`` order; for diagnosis, not
+    the control loop: the sweep rule is checked on all rollouts), and the footprint's clearance now."""
+    clearance, now = _clearances(costmap, pose, states)
+    sweeps_seen = ~sweeps_unseen(costmap, pose, states, spacing_m=rules.outline_spacing_m)
+    if not rules.sweep_observed_only:
+        sweeps_seen[:] = True
+    masks = (
+        _keeps_clearance(clearance, now, rules=rules),
+        _within_unseen_allowance(costmap, pose, states, rules=rules),
+        _backs_onto_known(costmap, states, commands),
+        sweeps_seen,
+    )
+    return dict(zip(RULE_NAMES, masks, strict=True)), now
 
 
 def regulate(v: float, w: float, clearance_m: float, *, rules: SafetyRules) -> tuple[float, float]:

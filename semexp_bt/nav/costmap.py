@@ -318,51 +318,24 @@ class Costmap:
         return shift
 
     # ------------------------------------------------------------------ update
-    def integrate(self, observation: Observation) -> UpdateStats:
-        """Add one depth frame (marking, clearing, footprint clearing, inflation where it changed)."""
+    def integrate(self, observation: Observation, *beside: Observation) -> UpdateStats:
+        """Add one depth frame (marking, clearing, footprint clearing, inflation where it changed), and
+        the frames ``beside`` it taken at the same instant (the flank cameras'), in one update: one
+        footprint clearing and one inflation pass for all of them."""
         cfg = self.config
         stats = UpdateStats()
         if self.frozen:
             return stats
-        grid = self.sampled_pixels
-        depth_full = observation.depth_m
-        rows_px = grid.indices(depth_full.shape[0])
-        cols_px = grid.indices(depth_full.shape[1])
-        depth = np.asarray(
-            depth_full[grid.offset :: grid.stride, grid.offset :: grid.stride], dtype=np.float64
-        )
-        with np.errstate(invalid="ignore"):
-            valid = np.isfinite(depth) & (depth > 0.0)
-        k = observation.intrinsics
-        t = np.asarray(observation.camera_to_world, dtype=float)
-        r_idx, c_idx = np.nonzero(valid)
-        z = depth[r_idx, c_idx]
-        x_cam = (cols_px[c_idx] - k.cx_px) / k.fx_px * z
-        y_cam = (rows_px[r_idx] - k.cy_px) / k.fy_px * z
-        rot, origin = t[:3, :3], t[:3, 3]
-        wx = rot[0, 0] * x_cam + rot[0, 1] * y_cam + rot[0, 2] * z + origin[0]
-        wy = rot[1, 0] * x_cam + rot[1, 1] * y_cam + rot[1, 2] * z + origin[1]
-        wz = rot[2, 0] * x_cam + rot[2, 1] * y_cam + rot[2, 2] * z + origin[2]
-        horizontal = np.hypot(wx - origin[0], wy - origin[1])
-        near = horizontal <= cfg.max_range_m
-        is_hit = near & (wz >= cfg.obstacle_min_z_m) & (wz <= cfg.obstacle_max_z_m)
-        is_floor = near & (wz < cfg.obstacle_min_z_m)
-        stats.rays = int(np.count_nonzero(near))
-
-        # Clearing: the stretch of each floor ray that runs below obstacle_min_z_m, sampled every half cell.
-        fx, fy, fz = wx[is_floor], wy[is_floor], wz[is_floor]
-        drop = origin[2] - fz  # > 0: the ray descends to the floor
-        start = np.clip((origin[2] - cfg.obstacle_min_z_m) / np.maximum(drop, 1e-6), 0.0, 1.0)
-        seg = horizontal[is_floor] * (1.0 - start)
-        step = 0.5 * cfg.resolution_m
-        counts = np.floor(seg / step).astype(np.int64) + 1
-        total = int(counts.sum())
-        ray = np.repeat(np.arange(fx.size), counts)
-        offsets = np.arange(total) - np.repeat(np.cumsum(counts) - counts, counts)
-        frac = 1.0 - (offsets * step) / np.maximum(horizontal[is_floor], 1e-9)[ray]
-        clear_x = origin[0] + (fx - origin[0])[ray] * frac
-        clear_y = origin[1] + (fy - origin[1])[ray] * frac
-        hit_x, hit_y = wx[is_hit], wy[is_hit]
+        clears_x, clears_y, hits_x, hits_y = [], [], [], []
+        for frame in (observation, *beside):
+            clear_x, clear_y, hit_x, hit_y, rays = self._rays(frame)
+            clears_x.append(clear_x)
+            clears_y.append(clear_y)
+            hits_x.append(hit_x)
+            hits_y.append(hit_y)
+            stats.rays += rays
+        clear_x, clear_y = np.concatenate(clears_x), np.concatenate(clears_y)
+        hit_x, hit_y = np.concatenate(hits_x), np.concatenate(hits_y)
 
         # Footprint clearing: the cells under the robot (shrunk by a cell: an obstacle it touches stays).
         pose = observation.base_pose
@@ -425,6 +398,50 @@ class Costmap:
             self.revision += 1
         self.frames += 1
         return stats
+
+    def _rays(self, observation: Observation) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, int]:
+        """One frame's clearing points (each floor ray's stretch below ``obstacle_min_z_m``, every half
+        cell), its marking points, and how many of its rays were within range."""
+        cfg = self.config
+        grid = self.sampled_pixels
+        depth_full = observation.depth_m
+        rows_px = grid.indices(depth_full.shape[0])
+        cols_px = grid.indices(depth_full.shape[1])
+        depth = np.asarray(
+            depth_full[grid.offset :: grid.stride, grid.offset :: grid.stride], dtype=np.float64
+        )
+        with np.errstate(invalid="ignore"):
+            valid = np.isfinite(depth) & (depth > 0.0)
+        k = observation.intrinsics
+        t = np.asarray(observation.camera_to_world, dtype=float)
+        r_idx, c_idx = np.nonzero(valid)
+        z = depth[r_idx, c_idx]
+        x_cam = (cols_px[c_idx] - k.cx_px) / k.fx_px * z
+        y_cam = (rows_px[r_idx] - k.cy_px) / k.fy_px * z
+        rot, origin = t[:3, :3], t[:3, 3]
+        wx = rot[0, 0] * x_cam + rot[0, 1] * y_cam + rot[0, 2] * z + origin[0]
+        wy = rot[1, 0] * x_cam + rot[1, 1] * y_cam + rot[1, 2] * z + origin[1]
+        wz = rot[2, 0] * x_cam + rot[2, 1] * y_cam + rot[2, 2] * z + origin[2]
+        horizontal = np.hypot(wx - origin[0], wy - origin[1])
+        near = horizontal <= cfg.max_range_m
+        is_hit = near & (wz >= cfg.obstacle_min_z_m) & (wz <= cfg.obstacle_max_z_m)
+        is_floor = near & (wz < cfg.obstacle_min_z_m)
+
+        # Clearing: the stretch of each floor ray that runs below obstacle_min_z_m, sampled every half cell.
+        fx, fy, fz = wx[is_floor], wy[is_floor], wz[is_floor]
+        drop = origin[2] - fz  # > 0: the ray descends to the floor
+        start = np.clip((origin[2] - cfg.obstacle_min_z_m) / np.maximum(drop, 1e-6), 0.0, 1.0)
+        seg = horizontal[is_floor] * (1.0 - start)
+        step = 0.5 * cfg.resolution_m
+        counts = np.floor(seg / step).astype(np.int64) + 1
+        total = int(counts.sum())
+        ray = np.repeat(np.arange(fx.size), counts)
+        offsets = np.arange(total) - np.repeat(np.cumsum(counts) - counts, counts)
+        frac = 1.0 - (offsets * step) / np.maximum(horizontal[is_floor], 1e-9)[ray]
+        clear_x = origin[0] + (fx - origin[0])[ray] * frac
+        clear_y = origin[1] + (fy - origin[1])[ray] * frac
+        hit_x, hit_y = wx[is_hit], wy[is_hit]
+        return clear_x, clear_y, hit_x, hit_y, int(np.count_nonzero(near))
 
     def _footprint_points(self, pose: Pose2D, *, shrink_m: float) -> FloatArray:
         """World points on a half-cell lattice inside the footprint at ``pose``, shrunk by ``shrink_m``."""
