@@ -36,8 +36,17 @@ same: look at it squarely, from close by.
 Voting: a view *votes* for the target when one of its arbitration candidates is an object whose
 label names the instructed object (relevance >= ``align_threshold``), whose raw posterior score S(t)
 of Eq. 2 reaches ``min_score``, and whose back-projected position lies within ``confirm_radius_m`` +
-``vote_slack_m`` of the robot. Success also needs the mean of the voting positions to lie within
-``confirm_radius_m`` (the success radius r_s): one view's depth is noisy by a decimetre or more, so a
+``vote_slack_m`` of the robot. At least one of the votes must come with a detector box (a ``fused`` or
+``object`` candidate): the VLM alone does not confirm. Its mistakes repeat from one viewpoint: it named
+the advertising board beside the sidewalk's traffic sign "traffic sign" in five of seven views (sidewalk
+seed 0, "find the grey traffic sign"; its confusion rate is 0.16 a view, but the views continue until
+the votes are in), and its candidates alone confirmed the board. A look-alike must now fool the
+detector too, whose confusions are independent draws. Requiring a box in every vote instead turned four
+of the five successes of the first seven dev episodes into failures: at warehouse_b seed 1000's goal,
+three of the six views had no box that voted.
+
+Success also needs the mean of the voting positions to lie within ``confirm_radius_m`` (the success
+radius r_s): one view's depth is noisy by a decimetre or more, so a
 robot standing 0.9 m from the target would lose single votes at a hard 1.0 m gate, while the mean of
 four views says reliably whether the target is within r_s. The candidate need not be the view's winner
 t*: an unexplored direction may outscore the object in Eq. 2 (it is where to look next), yet the object
@@ -50,10 +59,14 @@ back (a distractor that fooled the detector once is not trusted twice), while a 
 can still be revisited.
 
 Label agreement: every view the behaviour inspects (first and further, over the whole mission) also
-records what the VLM and the detector *called* the objects in front of the robot: a name-the-target
-mark at a voting point, and a name-something-else mark at each object proposal or candidate whose label
-is not the instructed one. Before declaring success, the marks within ``label_agreement_radius_m`` of
-the target must name the target at least ``min_label_agreement`` of the time. A plain shelf that the VLM
+records what the VLM *called* the objects in front of the robot, in its own words: a mark at each of its
+object proposals near the robot, naming the target or something else. The detector's boxes leave no
+mark: a prompted detector (GroundingDINO) labels every box with the prompt's phrase, so its label echoes
+the instruction and says nothing of what the object is (sidewalk seed 0, "find the grey traffic sign":
+the detector boxed the yellow advertising board beside the sign as "grey traffic sign" view after view,
+while the VLM called it an advertising board; counting the detector's echoes let the board be confirmed).
+Before declaring success, the marks within ``label_agreement_radius_m`` of the target must name the
+target at least ``min_label_agreement`` of the time. A plain shelf that the VLM
 calls "shelf" in half its views and "bucket shelf" in the other half collects three votes now and
 then; it never collects a majority of 0.7. A real bucket shelf is named so in most views.
 
@@ -233,6 +246,7 @@ class ConfirmTarget(SemExpBehaviour):
         #: The label the first view voted for (None until it has), and every voting position, first first.
         self._label: str | None = None
         self._vote_points: list[np.ndarray] = []
+        self._boxed_votes = 0
         self._views = 0
         self._job: PerceptionJob | None = None
         #: Whether it is still stepping up to the first vote, and since when (robot clock).
@@ -245,6 +259,7 @@ class ConfirmTarget(SemExpBehaviour):
         self._label = None
         self._views = 0
         self._vote_points = []
+        self._boxed_votes = 0
         self._job = None
         self._stepping = False
         self._moved = False
@@ -262,9 +277,9 @@ class ConfirmTarget(SemExpBehaviour):
         arbitration: ArbitrationResult | None,
         scene: SceneEvidence | None,
         observation: Observation | None,
-    ) -> tuple[str, np.ndarray] | None:
+    ) -> tuple[str, np.ndarray, bool] | None:
         """The label and world position of the best candidate in this view that votes for the target
-        (see the module docstring), or None."""
+        (see the module docstring), and whether a detector box is among the voting candidates; or None."""
         if arbitration is None or observation is None:
             return None
         pose = self.services.robot.base_pose()
@@ -282,6 +297,8 @@ class ConfirmTarget(SemExpBehaviour):
             return point
 
         best: tuple[float, str, np.ndarray] | None = None
+        boxed = False
+        named_proposals: set[int] = set()
         for candidate in arbitration.candidates:
             if candidate.kind == "direction":
                 continue
@@ -291,19 +308,26 @@ class ConfirmTarget(SemExpBehaviour):
             point = nearby_point(candidate.pixel_px, candidate_box(candidate, scene))
             if point is None:
                 continue
-            self._names.append((float(point[0]), float(point[1]), aligned))
-            if aligned and (best is None or candidate.score > best[0]):
-                best = (candidate.score, candidate.label, point)
+            # A prompted detector labels every box with the prompt, so only the VLM's own name for the
+            # object says what it is: a detection-only candidate leaves no name, a fused one the name
+            # of its scene proposal.
+            if scene is not None and candidate.proposal_index is not None:
+                named_proposals.add(candidate.proposal_index)
+                vlm_name = scene.proposals[candidate.proposal_index].label
+                self._names.append((float(point[0]), float(point[1]), self._aligned(vlm_name)))
+            if aligned:
+                boxed = boxed or candidate.detection_index is not None
+                if best is None or candidate.score > best[0]:
+                    best = (candidate.score, candidate.label, point)
         if scene is not None:
             # Names the VLM gave that no candidate carries (the arbitration keeps only target-like labels).
-            carried = {c.label for c in arbitration.candidates}
-            for proposal in scene.proposals:
-                if proposal.kind != "object" or self._aligned(proposal.label) or proposal.label in carried:
+            for index, proposal in enumerate(scene.proposals):
+                if proposal.kind != "object" or index in named_proposals:
                     continue
                 point = nearby_point(proposal.point_px, proposal.region_px)
                 if point is not None:
-                    self._names.append((float(point[0]), float(point[1]), False))
-        return None if best is None else (best[1], best[2])
+                    self._names.append((float(point[0]), float(point[1]), self._aligned(proposal.label)))
+        return None if best is None else (best[1], best[2], boxed)
 
     def _label_agreement(self, point: np.ndarray) -> tuple[int, int]:
         """(names of the target, all names) recorded within ``label_agreement_radius_m`` of ``point``."""
@@ -341,8 +365,9 @@ class ConfirmTarget(SemExpBehaviour):
             vote = self._vote(self.read("arbitration"), self.read("scene_evidence"), self.read("observation"))
             if vote is None:
                 return self._reject("no confirmable target here")
-            self._label, first_point = vote
+            self._label, first_point, boxed = vote
             self._vote_points = [first_point]
+            self._boxed_votes = int(boxed)
             self._stepping, self._step_started_s = True, self.now_s()
         if self._votes >= self.extra_views:
             return self._succeed()
@@ -386,6 +411,7 @@ class ConfirmTarget(SemExpBehaviour):
             and np.linalg.norm(vote[1][:2] - self._vote_points[0][:2]) <= self.consistency_radius_m
         ):
             self._vote_points.append(vote[1])
+            self._boxed_votes += int(vote[2])
         if self._votes >= self.extra_views:
             return self._succeed()
         if self._votes + (self.max_extra_views - self._views) < self.extra_views:
@@ -438,6 +464,8 @@ class ConfirmTarget(SemExpBehaviour):
         reach = math.hypot(point[0] - pose.x_m, point[1] - pose.y_m)
         if reach > self.confirm_radius_m:
             return self._reject(f"{label!r} has the votes, but its mean position is {reach:.2f} m away")
+        if not self._boxed_votes:
+            return self._reject(f"{label!r} has the votes, but the detector boxed it in none of them")
         agreeing, heard = self._label_agreement(point)
         if heard and agreeing < self.min_label_agreement * heard:
             return self._reject(

@@ -6,6 +6,7 @@ from the rig's scripted perception, one script entry per view.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable
 
@@ -14,7 +15,8 @@ from py_trees.common import Status
 
 from behaviours.confirm_target import ConfirmTarget
 from semexp_bt.core.geometry import wrap_angle
-from semexp_bt.core.types import Twist
+from semexp_bt.core.types import Observation, Twist
+from semexp_bt.perception.interface import PerceptionResult
 from tests.behaviours.rig import INSTRUCTION, Rig, compact, robot_among
 from tests.test_executive import Post, seeing
 
@@ -22,11 +24,13 @@ TARGET = Post(1, 0.8, 0.0, vlm_label="fire extinguisher", detector_label="fire e
 SEES, BLIND = seeing([TARGET], directions=False), seeing([], directions=False)
 
 
-def rig_before_the_target(make_rig: Callable[..., Rig], further_views: list[Callable[..., object]]) -> Rig:
+def rig_before_the_target(
+    make_rig: Callable[..., Rig], further_views: list[Callable[..., object]], target: Post = TARGET
+) -> Rig:
     """The robot 0.8 m from the target (front surface 0.6 m away); its first view is on the board."""
-    rig = make_rig(robot=robot_among(TARGET), script=further_views, latency_s=1.0)
+    rig = make_rig(robot=robot_among(target), script=further_views, latency_s=1.0)
     rig.get("memory").add_master(position_m=(0.0, 0.0, 0.0), stamp_s=0.0)
-    rig.stage_view([TARGET])
+    rig.stage_view([target])
     return rig
 
 
@@ -173,3 +177,36 @@ def test_a_base_that_never_reads_still_delays_the_views_by_a_second_at_most(
     rig.show(confirm)
     assert statuses[-1] == Status.SUCCESS
     assert len(rig.perception.requests) == 3
+
+
+def test_the_vlm_alone_does_not_confirm(make_rig: Callable[..., Rig]) -> None:
+    named_by_the_vlm_only = Post(1, 0.8, 0.0, vlm_label="fire extinguisher", detector_label=None)
+    further_views = [seeing([named_by_the_vlm_only], directions=False)]
+    rig = rig_before_the_target(make_rig, further_views, named_by_the_vlm_only)
+    confirm = rig.build(ConfirmTarget)
+    statuses = rig.tick_until_done(confirm)
+    rig.show(confirm)
+    assert compact(statuses) == ["RUNNING", "FAILURE"]
+    assert confirm.feedback_message.endswith("the detector boxed it in none of them")
+    assert rig.get("found_objects") == []
+
+
+def test_boxes_the_detector_labels_with_the_prompt_do_not_outvote_what_the_vlm_calls_the_object(
+    make_rig: Callable[..., Rig],
+) -> None:
+    # The detector boxes a board with the prompt's phrase in every view; the VLM mentions it in the first
+    # view only, as a board. Counted as names, the boxes would outvote it 4 to 1.
+    board = Post(1, 0.8, 0.0, vlm_label="advertising board", detector_label="fire extinguisher")
+    with_names = seeing([board], directions=False)
+
+    def boxes_only(observation: Observation) -> PerceptionResult:
+        result = with_names(observation)
+        return dataclasses.replace(result, scene=dataclasses.replace(result.scene, proposals=()))
+
+    rig = rig_before_the_target(make_rig, [boxes_only], board)
+    confirm = rig.build(ConfirmTarget)
+    statuses = rig.tick_until_done(confirm)
+    rig.show(confirm)
+    assert compact(statuses) == ["RUNNING", "FAILURE"]
+    assert "names heard at its spot name it" in confirm.feedback_message
+    assert rig.get("found_objects") == []
