@@ -200,7 +200,7 @@ def test_the_mission_over_ros2_has_the_in_process_outcome(tmp_path: Path, scene:
 def _profile(tmp_path: Path, **deadlines: float) -> Path:
     """A robot profile whose deadlines are generous but for the ones given (a loaded CI machine must not
     trip another stream first)."""
-    streams = ("odom", "imu", "joint_states", "color_image", "color_info", "depth_image")
+    streams = ("odom", "imu", "joint_states", "color_image", "color_info", "depth_image", "side_depth")
     values = {stream: deadlines.get(stream, 5.0) for stream in streams}
     path = tmp_path / "robot.yaml"
     path.write_text("deadlines_s: {" + ", ".join(f"{k}: {v}" for k, v in values.items()) + "}\n")
@@ -244,10 +244,19 @@ def test_the_view_of_a_mission_over_ros2_is_saved_as_in_process(tmp_path: Path) 
     assert scored["ended_by"] == "mission_end" and scored["frames_published"] >= len(observed)
 
 
-def test_a_silent_camera_zeroes_the_twist_and_halts_the_mission_naming_it(tmp_path: Path) -> None:
+@pytest.mark.parametrize(
+    ("stream", "deadline_key", "topic"),
+    [
+        ("color_image", "color_image", "/camera/camera/color/image_raw"),
+        ("left_depth_image", "side_depth", "/body_camera/left/depth/image_raw"),
+    ],
+)
+def test_a_silent_camera_zeroes_the_twist_and_halts_the_mission_naming_it(
+    tmp_path: Path, stream: str, deadline_key: str, topic: str
+) -> None:
     domain = fresh_domain_id()
     env = isolated_env(domain)
-    profile = _profile(tmp_path, color_image=1.0)
+    profile = _profile(tmp_path, **{deadline_key: 1.0})
     bridge = semexp(
         [
             "sim-bridge",
@@ -260,7 +269,7 @@ def test_a_silent_camera_zeroes_the_twist_and_halts_the_mission_naming_it(tmp_pa
             "--robot-profile",
             str(profile),
             "--silence",
-            "color_image=15",
+            f"{stream}=15",
             "--max-wall-s",
             "120",
         ],
@@ -297,11 +306,11 @@ def test_a_silent_camera_zeroes_the_twist_and_halts_the_mission_naming_it(tmp_pa
         stop(bridge)
     assert rc == 3
     assert record["outcome"] == "halted"
-    assert record["halted_by"]["topic"] == "/camera/camera/color/image_raw"
+    assert record["halted_by"]["topic"] == topic
     assert (
         "silent for" in record["halted_by"]["reason"] and "deadline 1.00 s" in record["halted_by"]["reason"]
     )
-    assert "robot halted: /camera/camera/color/image_raw" in log
+    assert f"robot halted: {topic}" in log
     # The halt came about a deadline after the silence began (15 s of the bridge's clock), not later.
     halted_at = record["ros_time_at_start_s"] + record["sim_time_s"]
     assert 15.0 <= halted_at <= 15.0 + 1.0 + 1.0
