@@ -13,7 +13,8 @@ own clock, so a clock-jump fault does not move the schedule.
 - ``camera_freeze``: the frame handed out last is handed out again, with its own (old) stamp and pose,
   while :meth:`sensor_stamps` says frames keep arriving (a hung image pipeline re-publishing its last
   buffer): only the frame's own stamp shows that it is stale.
-- ``depth_corrupt``: rectangular patches of each frame's depth read 0 or NaN.
+- ``depth_corrupt``: rectangular patches of each frame's depth read 0 or NaN (the flank cameras' too;
+  the camera faults above are the head camera's only).
 - ``odometry_drop`` / ``imu_drop``: the pose and twist / the IMU reading stop updating, and their stamps
   stay at the fault's start.
 - ``odometry_jump``: the odometry frame moves once against the world (a rigid offset about where the
@@ -302,6 +303,11 @@ class FaultyRobot(Robot):
 
     def observe_depth(self, *, pixel_grids: Sequence[PixelGrid] | None = None) -> Observation:
         return self._deliver("depth", lambda: self.inner.observe_depth(pixel_grids=pixel_grids))
+
+    def observe_side_depth(self, *, pixel_grids: Sequence[PixelGrid] | None = None) -> list[Observation]:
+        """The backend's flank frames as the executive reads them: the odometry, clock and depth faults
+        apply (the camera faults are the head camera's)."""
+        return [self._as_read(frame) for frame in self.inner.observe_side_depth(pixel_grids=pixel_grids)]
 
     def sensor_stamps(self) -> SensorStamps:
         stamps = self.inner.sensor_stamps()
