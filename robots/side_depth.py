@@ -13,8 +13,9 @@ reads 0, and so does a ray that hits the robot's own legs (a real stereo camera'
 costmap reads them; perception never does.
 
 Example: with the defaults each camera looks 90 deg sideways, 40 deg down, from the trunk's flank
-(0.085 m off the centre line, trunk height): it sees the floor from 0.1 m beside the body to about 2 m out,
-53 deg fore and aft, which covers the Go1's turning circle (0.36 m circumscribed radius).
+(0.085 m off the centre line, trunk height). It sees the floor from 0.1 m off the centre line (just
+outside the flank) to about 2 m out, 53 deg fore and aft, which covers the Go1's turning circle (0.36 m
+circumscribed radius).
 """
 
 from __future__ import annotations
