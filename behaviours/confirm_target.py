@@ -46,9 +46,9 @@ of the five successes of the first seven dev episodes into failures: at warehous
 three of the six views had no box that voted.
 
 Success also needs the mean of the voting positions to lie within ``confirm_radius_m`` (the success
-radius r_s): one view's depth is noisy by a decimetre or more, so a
-robot standing 0.9 m from the target would lose single votes at a hard 1.0 m gate, while the mean of
-four views says reliably whether the target is within r_s. The candidate need not be the view's winner
+radius r_s): one view's depth is noisy by a decimetre or more, so a robot standing 0.9 m from the target
+would lose single votes at a hard 1.0 m gate, while the mean of four views says reliably whether the
+target is within r_s. The candidate need not be the view's winner
 t*: an unexplored direction may outscore the object in Eq. 2 (it is where to look next), yet the object
 is still seen here.
 
@@ -62,11 +62,9 @@ Label agreement: every view the behaviour inspects (first and further, over the 
 records what the VLM *called* the objects in front of the robot, in its own words: a mark at each of its
 object proposals near the robot, naming the target or something else. The detector's boxes leave no
 mark: a prompted detector (GroundingDINO) labels every box with the prompt's phrase, so its label echoes
-the instruction and says nothing of what the object is (sidewalk seed 0, "find the grey traffic sign":
-the detector boxed the yellow advertising board beside the sign as "grey traffic sign" view after view,
-while the VLM called it an advertising board; counting the detector's echoes let the board be confirmed).
-Before declaring success, the marks within ``label_agreement_radius_m`` of the target must name the
-target at least ``min_label_agreement`` of the time. A plain shelf that the VLM
+the instruction and says nothing of what the object is. Before declaring success, the marks within
+``label_agreement_radius_m`` of the target must name the target at least ``min_label_agreement`` of the
+time. A plain shelf that the VLM
 calls "shelf" in half its views and "bucket shelf" in the other half collects three votes now and
 then; it never collects a majority of 0.7. A real bucket shelf is named so in most views.
 
@@ -246,7 +244,7 @@ class ConfirmTarget(SemExpBehaviour):
         #: The label the first view voted for (None until it has), and every voting position, first first.
         self._label: str | None = None
         self._vote_points: list[np.ndarray] = []
-        self._boxed_votes = 0
+        self._boxed = False
         self._views = 0
         self._job: PerceptionJob | None = None
         #: Whether it is still stepping up to the first vote, and since when (robot clock).
@@ -259,7 +257,7 @@ class ConfirmTarget(SemExpBehaviour):
         self._label = None
         self._views = 0
         self._vote_points = []
-        self._boxed_votes = 0
+        self._boxed = False
         self._job = None
         self._stepping = False
         self._moved = False
@@ -365,9 +363,8 @@ class ConfirmTarget(SemExpBehaviour):
             vote = self._vote(self.read("arbitration"), self.read("scene_evidence"), self.read("observation"))
             if vote is None:
                 return self._reject("no confirmable target here")
-            self._label, first_point, boxed = vote
+            self._label, first_point, self._boxed = vote
             self._vote_points = [first_point]
-            self._boxed_votes = int(boxed)
             self._stepping, self._step_started_s = True, self.now_s()
         if self._votes >= self.extra_views:
             return self._succeed()
@@ -411,7 +408,7 @@ class ConfirmTarget(SemExpBehaviour):
             and np.linalg.norm(vote[1][:2] - self._vote_points[0][:2]) <= self.consistency_radius_m
         ):
             self._vote_points.append(vote[1])
-            self._boxed_votes += int(vote[2])
+            self._boxed = self._boxed or vote[2]
         if self._votes >= self.extra_views:
             return self._succeed()
         if self._votes + (self.max_extra_views - self._views) < self.extra_views:
@@ -464,7 +461,7 @@ class ConfirmTarget(SemExpBehaviour):
         reach = math.hypot(point[0] - pose.x_m, point[1] - pose.y_m)
         if reach > self.confirm_radius_m:
             return self._reject(f"{label!r} has the votes, but its mean position is {reach:.2f} m away")
-        if not self._boxed_votes:
+        if not self._boxed:
             return self._reject(f"{label!r} has the votes, but the detector boxed it in none of them")
         agreeing, heard = self._label_agreement(point)
         if heard and agreeing < self.min_label_agreement * heard:

@@ -22,6 +22,7 @@ eye-space distance along the optical axis ``z = n f / (n + z_w (f - n))``: it is
 
 from __future__ import annotations
 
+import functools
 import math
 import os
 import platform
@@ -73,15 +74,17 @@ class PixelRays(NamedTuple):
     """Range beyond which no ray can return a valid depth."""
 
 
+@functools.lru_cache(maxsize=32)
 def pixel_rays(
     intrinsics: CameraIntrinsics,
     *,
     height_px: int,
     width_px: int,
-    pixel_grids: Sequence[PixelGrid],
+    pixel_grids: tuple[PixelGrid, ...],
     max_depth_m: float,
 ) -> PixelRays:
-    """The optical-frame rays through the union of the grids' pixels of a pinhole camera."""
+    """The optical-frame rays through the union of the grids' pixels of a pinhole camera, computed once
+    per camera and set of grids (cached: every depth read of a grid reuses them, read-only)."""
     sampled = np.zeros((height_px, width_px), dtype=bool)
     for grid in pixel_grids:
         sampled |= grid.mask(height_px=height_px, width_px=width_px)
@@ -94,7 +97,10 @@ def pixel_rays(
     depth_per_range = 1.0 / norms
     # The most oblique ray reaches max_depth_m along the axis at the longest range.
     cutoff_m = max_depth_m / float(depth_per_range.min()) if norms.size else 0.0
-    return PixelRays(rows, cols, directions / norms[:, None], depth_per_range, cutoff_m)
+    rays = PixelRays(rows, cols, directions / norms[:, None], depth_per_range, cutoff_m)
+    for array in rays[:4]:
+        array.flags.writeable = False  # shared by every caller of the cache
+    return rays
 
 
 def cast_depth(
@@ -337,7 +343,6 @@ class RgbdCamera:
         self._camera.fixedcamid = self._camera_id
         self._rgb = np.empty((height, width, 3), dtype=np.uint8)
         self._depth = np.empty((height, width), dtype=np.float32)
-        self._ray_cache: dict[tuple[PixelGrid, ...], PixelRays] = {}
         self._closed = False
 
     @property
@@ -446,16 +451,13 @@ class RgbdCamera:
         """
         if self._closed:
             raise RuntimeError("RgbdCamera is closed")
-        key = tuple(pixel_grids)
-        rays = self._ray_cache.get(key)
-        if rays is None:
-            rays = self._ray_cache[key] = pixel_rays(
-                self.intrinsics,
-                height_px=self._config.height_px,
-                width_px=self._config.width_px,
-                pixel_grids=key,
-                max_depth_m=self._config.max_depth_m,
-            )
+        rays = pixel_rays(
+            self.intrinsics,
+            height_px=self._config.height_px,
+            width_px=self._config.width_px,
+            pixel_grids=tuple(pixel_grids),
+            max_depth_m=self._config.max_depth_m,
+        )
         optical_to_world = data.cam_xmat[self._camera_id].reshape(3, 3) @ MUJOCO_TO_OPTICAL
         return cast_depth(
             self._model,

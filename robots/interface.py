@@ -80,7 +80,8 @@ class Robot(abc.ABC):
 
         The default is none: a robot without them (or a backend that does not stream them) leaves the
         floor beside its body to what the head camera saw earlier, and the controller's sweep rule
-        treats the rest as unknown. Each frame's ``rgb`` is empty.
+        treats the rest as unknown. Each frame's ``rgb`` is empty; the frames come in
+        :data:`robots.mount.FLANK_SIDES` order.
         """
         del pixel_grids
         return []

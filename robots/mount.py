@@ -14,6 +14,9 @@ import numpy as np
 
 from semexp_bt.core.types import FloatArray
 
+#: The flank cameras' sides, in the order every backend returns their frames (left = +y on the base).
+FLANK_SIDES: tuple[str, ...] = ("left", "right")
+
 #: REP-103: the optical frame (x right, y down, z forward) in its camera link frame (x forward, y left,
 #: z up). Columns are the optical axes written in the link frame.
 OPTICAL_IN_LINK = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])

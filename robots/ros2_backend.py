@@ -55,6 +55,7 @@ import numpy.typing as npt
 
 from robots.go1 import load_go1_spec
 from robots.interface import Fidelity, Robot
+from robots.mount import FLANK_SIDES
 from robots.ros2_messages import (
     MessageError,
     camera_info_to_intrinsics,
@@ -74,7 +75,6 @@ from robots.ros2_messages import (
 from robots.ros2_profile import (
     SENSOR_STREAMS,
     SIDE_DEPTH_STREAMS,
-    SIDES,
     Ros2Profile,
     TopicQos,
     load_ros2_profile,
@@ -95,6 +95,7 @@ from robots.ros2_sim_protocol import (
     encode_camera_request,
 )
 from semexp_bt.core.types import (
+    FloatArray,
     ImuReading,
     InvalidInputError,
     JointState,
@@ -245,7 +246,7 @@ class Ros2Robot(Robot):
         self._side_depth = self.profile.side_depth.enabled and not simulation
         self._spec = load_go1_spec()
         self._optical_to_base = self.profile.optical_to_base()
-        self._side_optical_to_base = {side: self.profile.side_optical_to_base(side) for side in SIDES}
+        self._side_optical_to_base = {side: self.profile.side_optical_to_base(side) for side in FLANK_SIDES}
         self._twist_msg_type = TwistMsg
         # Built once and refilled per step (publish copies it): building a TwistStamped costs as much as
         # filling it.
@@ -806,21 +807,29 @@ class Ros2Robot(Robot):
         self._raise_if_halted()
 
     def _observation(
-        self, color: _Stamped | None, depth: _Stamped, segmentation: _Stamped | None
+        self,
+        color: _Stamped | None,
+        depth: _Stamped,
+        segmentation: _Stamped | None,
+        *,
+        info_stream: str = "color_info",
+        depth_stream: str = "depth_image",
+        optical_to_base: FloatArray | None = None,
     ) -> Observation:
-        """Convert a paired frame (call with the lock held)."""
-        info = self._latest.get("color_info")
+        """Convert a paired frame (call with the lock held): the head camera's, or with ``info_stream``,
+        ``depth_stream`` and ``optical_to_base`` another depth camera's."""
+        info = self._latest.get(info_stream)
         if info is None:
-            raise RobotHalted(self.profile.topics.color_info, "no camera info yet")
+            raise RobotHalted(self.profile.topic_of(info_stream), "no camera info yet")
         topics = self.profile.topics
         try:
             intrinsics = camera_info_to_intrinsics(info.msg)
         except MessageError as error:
-            self._halt_locked(topics.color_info, str(error))
+            self._halt_locked(self.profile.topic_of(info_stream), str(error))
         try:
             depth_m = image_to_depth_m(depth.msg)
         except MessageError as error:
-            self._halt_locked(topics.depth_image, str(error))
+            self._halt_locked(self.profile.topic_of(depth_stream), str(error))
         rgb = np.empty((0, 0, 3), dtype=np.uint8)
         if color is not None:
             try:
@@ -837,16 +846,17 @@ class Ros2Robot(Robot):
             color is not None and rgb.shape[:2] != depth_m.shape
         ):
             self._halt_locked(
-                topics.depth_image,
+                self.profile.topic_of(depth_stream),
                 f"frame sizes disagree: depth {depth_m.shape}, colour {rgb.shape[:2]}, "
                 f"camera info {intrinsics.height_px}x{intrinsics.width_px}",
             )
         base_to_odom = self._pose_at(depth.stamp_ns)
+        mount = self._optical_to_base if optical_to_base is None else optical_to_base
         return Observation(
             rgb=rgb,
             depth_m=depth_m,
             intrinsics=intrinsics,
-            camera_to_world=base_to_odom @ self._optical_to_base,
+            camera_to_world=base_to_odom @ mount,
             base_pose=pose2d_of(base_to_odom),
             # Lockstep frames are rendered at the current instant: stamp them with the float clock.
             stamp_s=self._now_s_locked() if self.lockstep else (depth.stamp_ns - self._epoch_ns) * 1e-9,
@@ -882,37 +892,21 @@ class Ros2Robot(Robot):
             if self.lockstep:
                 grids = None if pixel_grids is None else tuple(pixel_grids)
                 self._request_frame(CameraRequest(kind="side", grids=grids))
-            return [self._side_observation(side) for side in SIDES]
+            return [self._side_observation(side) for side in FLANK_SIDES]
 
     def _side_observation(self, side: str) -> Observation:
         """Convert one flank camera's latest depth image (call with the lock held)."""
-        image_stream, info_stream = f"{side}_depth_image", f"{side}_depth_info"
-        image, info = self._latest.get(image_stream), self._latest.get(info_stream)
-        if image is None or info is None:
-            missing = image_stream if image is None else info_stream
-            raise RobotHalted(self.profile.topic_of(missing), "no message yet")
-        try:
-            intrinsics = camera_info_to_intrinsics(info.msg)
-        except MessageError as error:
-            self._halt_locked(self.profile.topic_of(info_stream), str(error))
-        try:
-            depth_m = image_to_depth_m(image.msg)
-        except MessageError as error:
-            self._halt_locked(self.profile.topic_of(image_stream), str(error))
-        if depth_m.shape != (intrinsics.height_px, intrinsics.width_px):
-            self._halt_locked(
-                self.profile.topic_of(image_stream),
-                f"depth {depth_m.shape} disagrees with camera info {intrinsics.height_px}x{intrinsics.width_px}",
-            )
-        base_to_odom = self._pose_at(image.stamp_ns)
-        return Observation(
-            rgb=np.empty((0, 0, 3), dtype=np.uint8),
-            depth_m=depth_m,
-            intrinsics=intrinsics,
-            camera_to_world=base_to_odom @ self._side_optical_to_base[side],
-            base_pose=pose2d_of(base_to_odom),
-            stamp_s=self._now_s_locked() if self.lockstep else (image.stamp_ns - self._epoch_ns) * 1e-9,
-            segmentation=None,
+        stream = f"{side}_depth_image"
+        image = self._latest.get(stream)
+        if image is None:
+            raise RobotHalted(self.profile.topic_of(stream), "no message yet")
+        return self._observation(
+            None,
+            image,
+            None,
+            info_stream=f"{side}_depth_info",
+            depth_stream=stream,
+            optical_to_base=self._side_optical_to_base[side],
         )
 
     # ------------------------------------------------------------------ state

@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
-from robots.mount import link_to_base, optical_to_base
+from robots.mount import FLANK_SIDES, link_to_base, optical_to_base
 from semexp_bt.core.bounds import field_range
 from semexp_bt.core.config import ConfigError, config_from_dict
 from semexp_bt.core.types import FloatArray
@@ -36,9 +36,8 @@ GO1_PROFILE_PATH = Path(__file__).resolve().parent / "go1" / "ros2.yaml"
 #: The sensor streams the backend watches, by their key in ``topics``.
 SENSOR_STREAMS: tuple[str, ...] = ("odom", "imu", "joint_states", "color_image", "color_info", "depth_image")
 #: The flank depth cameras' streams (``side_depth``): ``<side>_depth_image`` and ``<side>_depth_info``.
-SIDES: tuple[str, ...] = ("left", "right")
 SIDE_DEPTH_STREAMS: tuple[str, ...] = tuple(
-    f"{side}_depth_{kind}" for side in SIDES for kind in ("image", "info")
+    f"{side}_depth_{kind}" for side in FLANK_SIDES for kind in ("image", "info")
 )
 
 
@@ -336,7 +335,6 @@ def load_ros2_profile(path: str | Path | None = None) -> Ros2Profile:
 __all__ = [
     "GO1_PROFILE_PATH",
     "SENSOR_STREAMS",
-    "SIDES",
     "SIDE_DEPTH_STREAMS",
     "ProfileError",
     "Ros2Profile",

@@ -28,12 +28,9 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
-from robots.camera import PixelRays, cast_depth, pixel_rays
-from robots.mount import optical_to_base
+from robots.camera import cast_depth, pixel_rays
+from robots.mount import FLANK_SIDES, optical_to_base
 from semexp_bt.core.types import CameraIntrinsics, FloatArray, InvalidInputError, PixelGrid
-
-#: The sides, by the sign of the mount's lateral offset and yaw (left = +y, yaw +90 deg).
-SIDES = {"left": 1.0, "right": -1.0}
 
 
 @dataclass(frozen=True)
@@ -85,8 +82,8 @@ class SideDepthConfig:
         )
 
     def optical_to_base(self, side: str) -> FloatArray:
-        """T_trunk<-optical of the ``side`` camera (``"left"`` or ``"right"``)."""
-        sign = SIDES[side]
+        """T_trunk<-optical of the ``side`` camera (``"left"``: +y and yaw +90 deg, or ``"right"``)."""
+        sign = 1.0 if side == "left" else -1.0
         return optical_to_base(
             (0.0, sign * self.mount_lateral_m, self.mount_height_m),
             0.0,
@@ -122,31 +119,25 @@ class SideDepthCameras:
         self._exclude_body_id = exclude_body_id
         self._robot_geoms = robot_geoms
         self._geomgroup = mujoco.MjvOption().geomgroup
-        self.mounts = {side: config.optical_to_base(side) for side in SIDES}
-        self._ray_cache: dict[tuple[PixelGrid, ...], PixelRays] = {}
-
-    @property
-    def intrinsics(self) -> CameraIntrinsics:
-        return self.config.intrinsics()
+        self.mounts = {side: config.optical_to_base(side) for side in FLANK_SIDES}
+        self.intrinsics = config.intrinsics()
 
     def measure(
         self, data: mujoco.MjData, base_to_world: FloatArray, *, pixel_grids: Sequence[PixelGrid]
     ) -> dict[str, tuple[npt.NDArray[np.float32], FloatArray]]:
-        """Per side, the depth image at the grids' pixels (NaN elsewhere) and its T_world<-optical.
+        """Per side (:data:`~robots.mount.FLANK_SIDES` order), the depth image at the grids' pixels (NaN
+        elsewhere) and its T_world<-optical.
 
         ``base_to_world`` is the trunk's pose as odometry reports it; ``data`` must have had forward
         kinematics.
         """
-        key = tuple(pixel_grids)
-        rays = self._ray_cache.get(key)
-        if rays is None:
-            rays = self._ray_cache[key] = pixel_rays(
-                self.intrinsics,
-                height_px=self.config.height_px,
-                width_px=self.config.width_px,
-                pixel_grids=key,
-                max_depth_m=self.config.max_depth_m,
-            )
+        rays = pixel_rays(
+            self.intrinsics,
+            height_px=self.config.height_px,
+            width_px=self.config.width_px,
+            pixel_grids=tuple(pixel_grids),
+            max_depth_m=self.config.max_depth_m,
+        )
         frames = {}
         for side, mount in self.mounts.items():
             camera_to_world = base_to_world @ mount

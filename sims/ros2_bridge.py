@@ -40,6 +40,7 @@ from typing import Any
 from robots.camera import CameraConfig
 from robots.go1 import load_go1_spec
 from robots.interface import Fidelity, Robot
+from robots.mount import FLANK_SIDES
 from robots.mujoco_backend import MujocoRobot
 from robots.ros2_backend import SIM_LATCHED_QOS, SIM_QOS, import_rclpy, qos_profile, ros_context
 from robots.ros2_messages import (
@@ -55,7 +56,7 @@ from robots.ros2_messages import (
     stamp_to_ns,
     twist_from_msg,
 )
-from robots.ros2_profile import SIDE_DEPTH_STREAMS, SIDES, Ros2Profile, load_ros2_profile
+from robots.ros2_profile import SIDE_DEPTH_STREAMS, Ros2Profile, load_ros2_profile
 from robots.ros2_sim_protocol import (
     CAMERA_REQUEST_TOPIC,
     HEARTBEAT_PERIOD_S,
@@ -263,7 +264,7 @@ class SimBridge:
         self._pubs["segmentation"] = self.node.create_publisher(
             Image, SEGMENTATION_TOPIC, qos_profile(SIM_QOS)
         )
-        for side in SIDES:
+        for side in FLANK_SIDES:
             camera = self.profile.side_depth.camera(side)
             self._pubs[f"{side}_depth_image"] = self.node.create_publisher(
                 Image, camera.image, qos_profile(qos.side_depth)
@@ -391,7 +392,7 @@ class SimBridge:
         and depth image."""
         stamp_s = self._now_ns() * 1e-9
         frames = self.robot.observe_side_depth(pixel_grids=request.grids)
-        for side, frame in zip(SIDES, frames, strict=True):
+        for side, frame in zip(FLANK_SIDES, frames, strict=True):
             optical = self.profile.side_depth.camera(side).frame
             info = self._types["color_info"]()
             fill_camera_info(info, frame.intrinsics, stamp_s=stamp_s, frame_id=optical)

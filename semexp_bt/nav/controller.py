@@ -280,9 +280,10 @@ def rule_masks(
     """Each rule of :func:`admissible` alone, over every rollout (``RULE_NAMES`` order; for diagnosis, not
     the control loop: the sweep rule is checked on all rollouts), and the footprint's clearance now."""
     clearance, now = _clearances(costmap, pose, states)
-    sweeps_seen = ~sweeps_unseen(costmap, pose, states, spacing_m=rules.outline_spacing_m)
-    if not rules.sweep_observed_only:
-        sweeps_seen[:] = True
+    if rules.sweep_observed_only:
+        sweeps_seen = ~sweeps_unseen(costmap, pose, states, spacing_m=rules.outline_spacing_m)
+    else:
+        sweeps_seen = np.ones(len(states), dtype=bool)
     masks = (
         _keeps_clearance(clearance, now, rules=rules),
         _within_unseen_allowance(costmap, pose, states, rules=rules),
