@@ -89,6 +89,7 @@ from robots.ros2_sim_protocol import (
     STEP_TOPIC,
     TIME_TOPIC,
     CameraRequest,
+    SimState,
     SimulationInfo,
     decode_simulation_info,
     decode_state,
@@ -335,13 +336,13 @@ class Ros2Robot(Robot):
             subscribe(types["state"], STATE_TOPIC, self._on_state, qos_profile(SIM_QOS))
         else:
             subscribe(types["odom"], topics.odom, self._on_odom, qos_profile(qos.odom))
-        subscribe(types["imu"], topics.imu, self._store("imu"), qos_profile(qos.imu))
-        subscribe(
-            types["joint_states"],
-            topics.joint_states,
-            self._store("joint_states"),
-            qos_profile(qos.joint_states),
-        )
+            subscribe(types["imu"], topics.imu, self._store("imu"), qos_profile(qos.imu))
+            subscribe(
+                types["joint_states"],
+                topics.joint_states,
+                self._store("joint_states"),
+                qos_profile(qos.joint_states),
+            )
         subscribe(
             types["color_info"], topics.color_info, self._store("color_info"), qos_profile(qos.color_info)
         )
@@ -479,9 +480,10 @@ class Ros2Robot(Robot):
             self._lock.notify_all()
 
     def _on_state(self, msg: Any) -> None:
-        """Lockstep: a step's reply (``/sim/state``), converted as ``/odom`` and ``/sim/time`` would be."""
+        """Lockstep: a step's reply (``/sim/state``), converted as ``/odom``, ``/sim/time``, ``/imu`` and
+        ``/joint_states`` would be (the IMU and joints when read: :meth:`imu`, :meth:`joint_state`)."""
         try:
-            state = decode_state(msg.data)
+            state = decode_state(msg.data, joints=len(self._spec.joint_names))
             transform = pose_to_transform(state.position_m, state.orientation_xyzw)
         except InvalidInputError as error:  # MessageError and SimProtocolError
             self._halt_now(STATE_TOPIC, f"malformed state ({error})")
@@ -490,6 +492,8 @@ class Ros2Robot(Robot):
             self._odom.append((state.stamp_ns, transform, state.twist))
             self._sim_time_s = state.sim_time_s
             self._record("odom", state.stamp_ns, msg)
+            self._record("imu", state.stamp_ns, state)
+            self._record("joint_states", state.stamp_ns, state)
             self._lock.notify_all()
 
     def _on_clock(self, msg: Any) -> None:
@@ -551,8 +555,10 @@ class Ros2Robot(Robot):
         return SENSOR_STREAMS + (SIDE_DEPTH_STREAMS if self._side_depth else ())
 
     def _topic_of(self, stream: str) -> str:
-        """The topic a stream arrives on (in lockstep, odometry comes on ``/sim/state``)."""
-        return STATE_TOPIC if stream == "odom" and self.lockstep else self.profile.topic_of(stream)
+        """The topic a stream arrives on (in lockstep, odometry, IMU and joints come on ``/sim/state``)."""
+        if self.lockstep and stream in ("odom", "imu", "joint_states"):
+            return STATE_TOPIC
+        return self.profile.topic_of(stream)
 
     def _missing(self) -> list[str]:
         missing = [] if not self.simulation or self._simulation_info is not None else [SCENE_TOPIC]
@@ -927,21 +933,25 @@ class Ros2Robot(Robot):
         with self._lock:
             entry = self._latest.get(stream)
             if entry is None:
-                raise RobotHalted(self.profile.topic_of(stream), "no message yet")
+                raise RobotHalted(self._topic_of(stream), "no message yet")
             if entry.converted is None:
                 try:
                     entry.converted = _read_only(convert(entry.msg))
                 except MessageError as error:
-                    self._halt_locked(self.profile.topic_of(stream), str(error))
+                    self._halt_locked(self._topic_of(stream), str(error))
             return entry.converted
 
     def joint_state(self) -> JointState:
+        if self.lockstep:
+            state: JointState = self._convert_latest("joint_states", SimState.joint_state)
+            return state
         names = self._spec.joint_names
-        state: JointState = self._convert_latest("joint_states", lambda msg: joint_state_from_msg(msg, names))
+        state = self._convert_latest("joint_states", lambda msg: joint_state_from_msg(msg, names))
         return state
 
     def imu(self) -> ImuReading:
-        reading: ImuReading = self._convert_latest("imu", imu_to_reading)
+        convert = SimState.imu_reading if self.lockstep else imu_to_reading
+        reading: ImuReading = self._convert_latest("imu", convert)
         return reading
 
     def safety(self) -> SafetyState:

@@ -11,7 +11,7 @@ simulation has travels here, never on those:
 | ``/sim/camera/segmentation`` | sensor_msgs/Image 16UC1 (id + 1) | bridge -> executive | the segmentation of each full frame, stamped as the colour frame |
 | ``/sim/outcome`` | std_msgs/String (JSON), transient local | executive -> bridge | the mission's declared outcome and confirmed targets, for the bridge's scoring |
 | ``/sim/time`` | std_msgs/Float64 | bridge -> executive | the simulator's clock in float seconds (``/clock`` is its nanosecond rounding); the lockstep executive's clock, so that its time comparisons are the in-process run's to the bit |
-| ``/sim/state`` | std_msgs/Float64MultiArray (:data:`STATE_FIELDS`) | bridge -> executive | lockstep: after each step, the one reply: the step's stamp, the float clock and the odometry (the values ``/odom`` and ``/sim/time`` carry), so that a step costs one message and one wake-up |
+| ``/sim/state`` | std_msgs/Float64MultiArray (:data:`STATE_FIELDS`) | bridge -> executive | lockstep: after each step, the one reply: the step's stamp, the float clock, the odometry, the IMU and the joints (the values ``/odom``, ``/sim/time``, ``/imu`` and ``/joint_states`` carry), so that a step costs one message and one wake-up |
 | ``/sim/heartbeat`` | std_msgs/Header | bridge -> executive | every 0.1 s from a thread of its own: the bridge is alive, if busy (a lockstep wait halts only after the deadline passes without it) |
 
 The bridge keeps the ground truth (where things are, which object is reached, collisions) to itself and
@@ -22,14 +22,16 @@ This module is plain data (no rclpy): the names and the JSON payloads, encoded a
 
 from __future__ import annotations
 
+import array
 import json
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any, Literal
 
+import numpy as np
+
 from semexp_bt.core.scene import SceneObject, SceneSpec
-from semexp_bt.core.types import InvalidInputError, PixelGrid, Twist
+from semexp_bt.core.types import ImuReading, InvalidInputError, JointState, PixelGrid, Twist
 
 SCENE_TOPIC = "/sim/scene"
 STEP_TOPIC = "/sim/step"
@@ -186,7 +188,9 @@ def decode_simulation_info(text: str) -> SimulationInfo:
     )
 
 
-#: The ``/sim/state`` payload's values, in order (float64 each; the stamp is exact below 2**53 ns, 104 days).
+#: The ``/sim/state`` payload's fixed values, in order (float64 each; the stamp is exact below 2**53 ns,
+#: 104 days). The joints follow: every joint's position, then every joint's velocity, in the robot's
+#: actuator order.
 STATE_FIELDS: tuple[str, ...] = (
     "stamp_ns",
     "sim_time_s",
@@ -200,14 +204,26 @@ STATE_FIELDS: tuple[str, ...] = (
     "linear_x_mps",
     "linear_y_mps",
     "angular_z_radps",
+    "imu_orientation_w",
+    "imu_orientation_x",
+    "imu_orientation_y",
+    "imu_orientation_z",
+    "imu_angular_velocity_x_radps",
+    "imu_angular_velocity_y_radps",
+    "imu_angular_velocity_z_radps",
+    "imu_linear_acceleration_x_mps2",
+    "imu_linear_acceleration_y_mps2",
+    "imu_linear_acceleration_z_mps2",
 )
 #: The largest stamp (ns) a float64 holds exactly.
 _EXACT_NS = 2**53
+_IMU_AT = STATE_FIELDS.index("imu_orientation_w")
 
 
 @dataclass(frozen=True)
 class SimState:
-    """A lockstep step's reply (``/sim/state``): what ``/odom`` and ``/sim/time`` carry, in one message.
+    """A lockstep step's reply (``/sim/state``): what ``/odom``, ``/sim/time``, ``/imu`` and
+    ``/joint_states`` carry, in one message.
 
     Attributes:
         stamp_ns: the instant (ns), as ``/odom``'s header stamp.
@@ -215,6 +231,9 @@ class SimState:
         position_m: the base's position in ``odom`` (x, y, z).
         orientation_xyzw: its orientation (a quaternion x, y, z, w, as the simulator has it).
         twist: its body twist.
+        imu: the latest IMU reading: orientation (w, x, y, z), angular velocity, linear acceleration.
+        joint_position_rad: the latest joint positions, in the actuator order.
+        joint_velocity_radps: the latest joint velocities (as many as the positions).
     """
 
     stamp_ns: int
@@ -222,39 +241,79 @@ class SimState:
     position_m: tuple[float, float, float]
     orientation_xyzw: tuple[float, float, float, float]
     twist: Twist
+    imu: tuple[float, ...]
+    joint_position_rad: tuple[float, ...]
+    joint_velocity_radps: tuple[float, ...]
+
+    def imu_reading(self) -> ImuReading:
+        """The IMU values as the backends' reading (what ``imu_to_reading`` makes of an ``/imu`` message)."""
+        return ImuReading(
+            angular_velocity_radps=np.array(self.imu[4:7]),
+            linear_acceleration_mps2=np.array(self.imu[7:10]),
+            orientation_wxyz=np.array(self.imu[0:4]),
+        )
+
+    def joint_state(self) -> JointState:
+        """The joint values as the backends' reading."""
+        return JointState(
+            position_rad=np.array(self.joint_position_rad), velocity_radps=np.array(self.joint_velocity_radps)
+        )
 
 
-def encode_state(state: SimState) -> list[float]:
-    """The ``/sim/state`` values (:data:`STATE_FIELDS`), float64 each: the receiver gets these bits."""
+def encode_state(state: SimState) -> array.array[float]:
+    """The ``/sim/state`` values (:data:`STATE_FIELDS`, then the joints), float64 each: the receiver gets
+    these bits. An ``array('d')``: rclpy's setter takes it as it is, where a list is checked value by value."""
     if not 0 <= state.stamp_ns < _EXACT_NS:
         raise SimProtocolError(f"{STATE_TOPIC}: stamp {state.stamp_ns} ns is not exact in a float64")
+    if len(state.imu) != len(STATE_FIELDS) - _IMU_AT:
+        raise SimProtocolError(f"{STATE_TOPIC}: the IMU takes {len(STATE_FIELDS) - _IMU_AT} values")
+    if len(state.joint_position_rad) != len(state.joint_velocity_radps):
+        raise SimProtocolError(f"{STATE_TOPIC}: as many joint velocities as positions")
     twist = state.twist
-    return [
-        float(state.stamp_ns),
-        float(state.sim_time_s),
-        *(float(v) for v in state.position_m),
-        *(float(v) for v in state.orientation_xyzw),
-        float(twist.linear_x_mps),
-        float(twist.linear_y_mps),
-        float(twist.angular_z_radps),
-    ]
+    return array.array(
+        "d",
+        [
+            state.stamp_ns,
+            state.sim_time_s,
+            *state.position_m,
+            *state.orientation_xyzw,
+            twist.linear_x_mps,
+            twist.linear_y_mps,
+            twist.angular_z_radps,
+            *state.imu,
+            *state.joint_position_rad,
+            *state.joint_velocity_radps,
+        ],
+    )
 
 
-def decode_state(values: Sequence[float]) -> SimState:
-    """Parse ``/sim/state`` values; wrong length or a non-finite value raises (names the field)."""
-    if len(values) != len(STATE_FIELDS):
-        raise SimProtocolError(f"{STATE_TOPIC}: expected {len(STATE_FIELDS)} values, got {len(values)}")
-    floats = [float(v) for v in values]
-    for name, value in zip(STATE_FIELDS, floats, strict=True):
-        if not math.isfinite(value):
-            raise SimProtocolError(f"{STATE_TOPIC}: field '{name}' must be finite, got {value}")
-    stamp, sim_time, px, py, pz, qx, qy, qz, qw, vx, vy, wz = floats
+def decode_state(values: Sequence[float], *, joints: int) -> SimState:
+    """Parse ``/sim/state`` values of a robot with ``joints`` joints; a wrong length or a non-finite value
+    raises (names the field)."""
+    expected = len(STATE_FIELDS) + 2 * joints
+    if len(values) != expected:
+        raise SimProtocolError(
+            f"{STATE_TOPIC}: expected {expected} values ({len(STATE_FIELDS)} and {joints} joints' position "
+            f"and velocity), got {len(values)}"
+        )
+    floats = np.asarray(values, dtype=np.float64)
+    finite = np.isfinite(floats)
+    if not finite.all():
+        at = int(np.argmin(finite))
+        name = STATE_FIELDS[at] if at < len(STATE_FIELDS) else f"joint value {at - len(STATE_FIELDS)}"
+        raise SimProtocolError(f"{STATE_TOPIC}: field '{name}' must be finite, got {floats[at]}")
+    listed = floats.tolist()
+    stamp, sim_time, px, py, pz, qx, qy, qz, qw, vx, vy, wz = listed[:_IMU_AT]
+    joint_at = len(STATE_FIELDS)
     return SimState(
         stamp_ns=int(stamp),
         sim_time_s=sim_time,
         position_m=(px, py, pz),
         orientation_xyzw=(qx, qy, qz, qw),
         twist=Twist(vx, vy, wz),
+        imu=tuple(listed[_IMU_AT:joint_at]),
+        joint_position_rad=tuple(listed[joint_at : joint_at + joints]),
+        joint_velocity_radps=tuple(listed[joint_at + joints :]),
     )
 
 

@@ -17,10 +17,11 @@ Two modes:
   the executive asks on ``/sim/camera/request`` (a full frame for perception, depth at the planner's and
   the map's pixel grids otherwise), exactly as the in-process backend renders inside a tick. The mission
   therefore sees the same world at the same instants as in-process, whatever the load on the machine.
-  Each step's reply is one ``/sim/state`` message (odometry and the float clock); ``/odom``, ``/sim/time``
-  and ``/clock`` go out per step only while something subscribes to them (ROS tools; the lockstep
-  executive does not), IMU and joint states every PROPRIOCEPTION_EVERY steps as in realtime. The main
-  loop waits on its subscriptions itself (``robots/ros2_pump.py``), no executor: one wake-up per request.
+  Each step's reply is one ``/sim/state`` message (odometry, the float clock, the IMU and the joints, these
+  two read every PROPRIOCEPTION_EVERY steps as in realtime); ``/odom``, ``/sim/time``, ``/clock``, ``/imu``
+  and ``/joint_states`` go out only while something subscribes to them (ROS tools; the lockstep executive
+  does not). The main loop waits on its subscriptions itself (``robots/ros2_pump.py``), no executor: one
+  wake-up per request.
 - ``realtime``: the world runs on the wall clock at the control rate like a robot, applies the latest
   ``/cmd_vel`` (zeroed 0.4 s after the last one), and publishes camera frames at ``camera_hz``. Rendering
   costs tens of milliseconds on a software rasteriser, so simulated time may run slower than the wall;
@@ -77,7 +78,7 @@ from robots.ros2_sim_protocol import (
 )
 from robots.side_depth import SideDepthConfig
 from semexp_bt.core.metrics import DEFAULT_CLEARANCE_M, DEFAULT_SUCCESS_RADIUS_M
-from semexp_bt.core.types import InvalidInputError, Observation, Twist
+from semexp_bt.core.types import ImuReading, InvalidInputError, JointState, Observation, Twist
 from sims.catalogue import build_scene
 from sims.episode_scoring import score_episode
 from sims.episodes import sample_episode
@@ -88,9 +89,12 @@ CONTROL_PERIOD_S = 0.02
 #: Lockstep: with no step for this long (s, wall), the bridge republishes the current state (so a late
 #: executive finds it, and a lost best-effort /clock is made good).
 HEARTBEAT_S = 0.25
-#: IMU and joint states go out every this many control steps (10 Hz): nothing in the tree reads them
-#: faster, and each message costs both processes more than a kinematic step does (docs/ros2.md).
+#: IMU and joint states are read (and in realtime go out) every this many control steps (10 Hz): nothing in
+#: the tree reads them faster, and each message costs both processes more than a kinematic step does
+#: (docs/ros2.md).
 PROPRIOCEPTION_EVERY = 5
+#: The streams that in lockstep travel inside ``/sim/state`` (not silenceable there on their own).
+RIDE_ON_STATE: tuple[str, ...] = ("imu", "joint_states")
 #: The streams a test may silence (``--silence STREAM=T``): the profile's sensor topics.
 SILENCEABLE: tuple[str, ...] = (
     "odom",
@@ -142,6 +146,12 @@ class BridgeOptions:
         unknown = sorted(set(self.silence) - set(SILENCEABLE))
         if unknown:
             raise InvalidInputError(f"cannot silence {unknown}; streams: {', '.join(SILENCEABLE)}")
+        riding = sorted(set(self.silence) & set(RIDE_ON_STATE))
+        if self.mode == "lockstep" and riding:
+            raise InvalidInputError(
+                f"cannot silence {riding} in lockstep: they ride on {STATE_TOPIC} there (silence 'odom' to "
+                "stop it, or use realtime mode)"
+            )
         if not (math.isfinite(self.camera_hz) and 0.0 < self.camera_hz <= 1.0 / CONTROL_PERIOD_S):
             raise InvalidInputError(
                 f"camera_hz must lie in (0, {1.0 / CONTROL_PERIOD_S:g}], got {self.camera_hz}"
@@ -211,6 +221,7 @@ class SimBridge:
         self._period_ns = int(round(CONTROL_PERIOD_S * 1e9))
         self._steps = 0
         self._positions = [self.robot.base_pose().position()]
+        self._proprioception: tuple[ImuReading, JointState] | None = None
         self._cmd_twist = Twist.zero()
         self._cmd_arrived_s: float | None = None
         self._cmd_arrived_ns = 0
@@ -327,17 +338,16 @@ class SimBridge:
             self._pubs[stream].publish(msg)
 
     def _wanted(self, stream: str) -> bool:
-        """Whether to publish ``stream``'s per-step message: always in realtime; in lockstep, where
-        ``/sim/state`` carries the step's reply, only while something subscribes to it (ROS tools, a
-        test's listener; the lockstep executive does not)."""
+        """Whether to publish ``stream``'s message: always in realtime; in lockstep, where ``/sim/state``
+        carries the step's reply, only while something subscribes to it (ROS tools, a test's listener; the
+        lockstep executive does not)."""
         return self.options.mode == "realtime" or self._pubs[stream].get_subscription_count() > 0
 
     def publish_state(self, *, heartbeat: bool = False) -> None:
         """The current instant's clock and odometry (and every PROPRIOCEPTION_EVERY steps, or on a
-        heartbeat, IMU and joint states), all stamped with it. In lockstep ``/sim/state`` goes first: it is
-        the reply the executive waits for, and what follows (the IMU and joints, the streams ROS tools
-        listen to) then goes out while the executive ticks its tree, on the other core; the executive
-        takes those at its next wait."""
+        heartbeat, IMU and joint states), all stamped with it. In lockstep ``/sim/state`` carries them all
+        and goes first: it is the reply the executive waits for, and what follows (the streams ROS tools
+        listen to) then goes out while the executive ticks its tree, on the other core."""
         now_ns = self._now_ns()
         stamp_s = now_ns * 1e-9
         frames = self.profile.frames
@@ -347,6 +357,11 @@ class SimBridge:
         position, orientation = robot.base_odometry()
         twist = robot.base_twist()
         sim_time_s = robot.now_s()
+        fresh = self._proprioception is None or self._steps % PROPRIOCEPTION_EVERY == 0 or heartbeat
+        if fresh:
+            self._proprioception = (robot.imu(), robot.joint_state())
+        assert self._proprioception is not None
+        imu, joints = self._proprioception
         if self.options.mode == "lockstep" and not self._silenced("odom"):  # it carries the odometry
             state = self._reused["state"]
             state.data = encode_state(
@@ -356,6 +371,9 @@ class SimBridge:
                     position_m=position,
                     orientation_xyzw=orientation,
                     twist=twist,
+                    imu=(*imu.orientation_wxyz, *imu.angular_velocity_radps, *imu.linear_acceleration_mps2),
+                    joint_position_rad=tuple(joints.position_rad),
+                    joint_velocity_radps=tuple(joints.velocity_radps),
                 )
             )
             self._pubs["state"].publish(state)
@@ -371,13 +389,14 @@ class SimBridge:
                 base_frame=frames.base,
             )
             self._publish("odom", odom)
-        if self._steps % PROPRIOCEPTION_EVERY == 0 or heartbeat:
-            imu = self._types["imu"]()
-            fill_imu(imu, robot.imu(), stamp_s=stamp_s, frame_id=frames.base)
-            self._publish("imu", imu)
-            joints = self._types["joint_states"]()
-            fill_joint_state(joints, self._joint_names, robot.joint_state(), stamp_s=stamp_s)
-            self._publish("joint_states", joints)
+        if fresh and self._wanted("imu"):
+            imu_msg = self._types["imu"]()
+            fill_imu(imu_msg, imu, stamp_s=stamp_s, frame_id=frames.base)
+            self._publish("imu", imu_msg)
+        if fresh and self._wanted("joint_states"):
+            joints_msg = self._types["joint_states"]()
+            fill_joint_state(joints_msg, self._joint_names, joints, stamp_s=stamp_s)
+            self._publish("joint_states", joints_msg)
         if self._wanted("sim_time"):
             sim_time = self._reused["sim_time"]
             sim_time.data = sim_time_s

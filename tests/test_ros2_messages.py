@@ -29,6 +29,7 @@ from robots.mount import rotation_from_rpy
 from robots.ros2_messages import (
     MessageError,
     camera_info_to_intrinsics,
+    depth_to_millimetres,
     fill_camera_info,
     fill_depth_image,
     fill_imu,
@@ -46,6 +47,7 @@ from robots.ros2_messages import (
     odometry_to_transform,
     odometry_to_twist,
     pose2d_of,
+    round_depth_to_millimetres,
     twist_from_msg,
 )
 from semexp_bt.core.types import CameraIntrinsics, ImuReading, Twist
@@ -100,11 +102,13 @@ def test_bgr8_is_swapped_and_row_padding_is_dropped() -> None:
 
 
 def test_16uc1_millimetres_become_metres_with_zero_kept_as_invalid() -> None:
-    depth_m = np.array([[0.0, 0.3004, 1.2346, np.nan], [-1.0, 65.535, 70.0, 9.9995]], dtype=np.float32)
+    depth_m = np.array(
+        [[0.0, 0.3004, 1.2346, np.nan, np.inf], [-1.0, 65.535, 70.0, 9.9995, -np.inf]], dtype=np.float32
+    )
     msg = Image()
     fill_depth_image(msg, depth_m, stamp_s=0.02, frame_id="camera_color_optical_frame")
-    assert msg.encoding == "16UC1" and msg.step == 8
-    expected = np.array([[0.0, 0.300, 1.235, 0.0], [0.0, 65.535, 0.0, 10.0]], dtype=np.float32)
+    assert msg.encoding == "16UC1" and msg.step == 10
+    expected = np.array([[0.0, 0.300, 1.235, 0.0, 0.0], [0.0, 65.535, 0.0, 10.0, 0.0]], dtype=np.float32)
     for decoded in _both_ways(msg, "sensor_msgs/msg/Image"):
         depth = image_to_depth_m(decoded)
         assert depth.dtype == np.float32
@@ -112,6 +116,31 @@ def test_16uc1_millimetres_become_metres_with_zero_kept_as_invalid() -> None:
     # Encoding is nearest-millimetre: no valid depth moves by more than half a millimetre.
     valid = np.isfinite(depth_m) & (depth_m > 0) & (depth_m <= 65.535)
     assert np.all(np.abs(image_to_depth_m(msg)[valid] - depth_m[valid]) <= 5e-4 + 1e-6)
+
+
+@given(
+    st.lists(
+        st.floats(min_value=-2.0, max_value=70.0, width=32)
+        | st.sampled_from([math.nan, math.inf, -math.inf]),
+        min_size=1,
+        max_size=64,
+    )
+)
+def test_depth_is_stored_to_the_nearest_millimetre_and_the_simulated_camera_rounds_as_the_wire(
+    values: list[float],
+) -> None:
+    depth_m = np.array(values, dtype=np.float32).reshape(1, -1)
+    millimetres = depth_to_millimetres(depth_m)
+    # The definition: the nearest millimetre of the float64 value; NaN, infinities, <= 0 and beyond
+    # 65.535 m store 0 (no depth).
+    for value, stored in zip(depth_m.ravel().tolist(), millimetres.ravel().tolist(), strict=True):
+        nearest = round(value * 1e3) if math.isfinite(value) else 0
+        assert stored == (nearest if 0 < nearest <= 65535 else 0)
+    rounded = round_depth_to_millimetres(depth_m)
+    assert rounded.dtype == np.float32
+    assert np.array_equal(np.isnan(rounded), np.isnan(depth_m))
+    measured = ~np.isnan(depth_m)
+    assert np.array_equal(rounded[measured], (millimetres.astype(np.float32) * np.float32(1e-3))[measured])
 
 
 def test_big_endian_16uc1_and_32fc1_depth_decode() -> None:

@@ -43,7 +43,7 @@ from robots.ros2_sim_protocol import (
 from robots.side_depth import SideDepthConfig
 from semexp_bt.core.types import InvalidInputError, PixelGrid, Pose2D, Twist
 from sims.catalogue import build_scene
-from sims.ros2_bridge import side_depth_config_for
+from sims.ros2_bridge import BridgeOptions, side_depth_config_for
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -163,6 +163,19 @@ def test_the_bridge_refuses_flank_mounts_it_cannot_simulate() -> None:
         side_depth_config_for(lopsided)
 
 
+def test_the_bridge_refuses_to_silence_what_it_cannot_silence() -> None:
+    with pytest.raises(InvalidInputError, match=r"cannot silence \['gps'\]; streams: odom, imu"):
+        BridgeOptions(scene="showroom", seed=0, silence={"gps": 1.0})
+    # In lockstep the IMU and the joints ride on /sim/state: silencing them alone would do nothing.
+    with pytest.raises(
+        InvalidInputError, match=r"cannot silence \['imu'\] in lockstep: they ride on /sim/state"
+    ):
+        BridgeOptions(scene="showroom", seed=0, silence={"imu": 1.0, "odom": 2.0})
+    assert BridgeOptions(scene="showroom", seed=0, mode="realtime", silence={"imu": 1.0}).silence == {
+        "imu": 1.0
+    }
+
+
 def test_the_scene_announcement_withholds_where_things_are() -> None:
     scene = build_scene("showroom", seed=9)
     info = decode_simulation_info(
@@ -210,16 +223,31 @@ def test_a_step_state_round_trips_to_the_bit_and_bad_payloads_are_named() -> Non
         position_m=(1.0 / 3.0, -2.0 / 7.0, 0.27),
         orientation_xyzw=(0.0, 0.0, math.sin(0.1), math.cos(0.1)),
         twist=Twist(0.3, -1e-17, 0.7),
+        imu=(math.cos(0.1), 0.0, 0.0, math.sin(0.1), 1e-3 / 3, 0.0, -0.2, 0.01, -0.02, 9.81),
+        joint_position_rad=(0.1, 0.8 / 3, -1.5),
+        joint_velocity_radps=(0.0, -1e-9, 2.0 / 3),
     )
     values = encode_state(state)
-    assert len(values) == len(STATE_FIELDS)
-    assert decode_state(values) == state
-    with pytest.raises(SimProtocolError, match="/sim/state: expected 12 values, got 11"):
-        decode_state(values[:-1])
+    assert len(values) == len(STATE_FIELDS) + 2 * 3
+    decoded = decode_state(values, joints=3)
+    print(decoded)
+    assert decoded == state
+    imu = decoded.imu_reading()
+    assert imu.orientation_wxyz.tolist() == list(state.imu[:4])
+    assert imu.linear_acceleration_mps2.tolist() == list(state.imu[7:])
+    assert decoded.joint_state().velocity_radps.tolist() == list(state.joint_velocity_radps)
+    with pytest.raises(SimProtocolError, match=r"/sim/state: expected 28 values \(22 and 3 joints"):
+        decode_state(values[:-1], joints=3)
     with pytest.raises(SimProtocolError, match="/sim/state: field 'orientation_w' must be finite"):
-        decode_state([*values[:8], math.nan, *values[9:]])
+        decode_state([*values[:8], math.nan, *values[9:]], joints=3)
+    with pytest.raises(SimProtocolError, match="/sim/state: field 'imu_linear_acceleration_z_mps2' must be"):
+        decode_state([*values[:21], math.inf, *values[22:]], joints=3)
+    with pytest.raises(SimProtocolError, match="/sim/state: field 'joint value 4' must be finite"):
+        decode_state([*values[:26], math.nan, *values[27:]], joints=3)
     with pytest.raises(SimProtocolError, match="not exact in a float64"):
         encode_state(dataclasses.replace(state, stamp_ns=2**53))
+    with pytest.raises(SimProtocolError, match="as many joint velocities as positions"):
+        encode_state(dataclasses.replace(state, joint_velocity_radps=(0.0,)))
 
 
 def test_the_default_path_never_imports_rclpy() -> None:
