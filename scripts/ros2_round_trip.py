@@ -5,10 +5,11 @@ Run it in the ROS 2 environment, on loopback only::
     scripts/ros2_isolated.sh .venv-ros2/bin/python scripts/ros2_round_trip.py --count 3000
 
 Two processes, as the bridge and the executive: one publishes a ``/sim/state``-sized message
-(std_msgs/Float64MultiArray of :data:`robots.ros2_sim_protocol.STATE_FIELDS` values) with the lockstep
+(std_msgs/Float64MultiArray of :data:`robots.ros2_sim_protocol.STATE_FIELDS` values and the Go1's joints) with the lockstep
 topics' QoS and waits for the other's reply, which answers each message with one of its own. Both take
 their messages with the lockstep pump (``robots/ros2_pump.py``). It prints the round trip's median, mean
-and 90th percentile in microseconds: the floor under every lockstep step (one round trip per tick), which
+and 90th percentile in microseconds, the asking side's publish (median) and its thread's CPU time per round
+trip: the floor under every lockstep step (one round trip per tick), which
 no change to the bridge or the executive can go below on this transport (docs/ros2.md).
 """
 
@@ -27,6 +28,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from robots.go1 import load_go1_spec  # noqa: E402
 from robots.ros2_backend import SIM_QOS, import_rclpy, qos_profile, ros_context  # noqa: E402
 from robots.ros2_pump import SubscriptionPump  # noqa: E402
 from robots.ros2_sim_protocol import STATE_FIELDS  # noqa: E402
@@ -51,7 +53,7 @@ def serve(role: str, count: int) -> dict[str, float] | None:
         Float64MultiArray, in_topic, lambda msg: received.append(msg.data[0]), qos_profile(SIM_QOS)
     )
     msg = Float64MultiArray()
-    msg.data = array.array("d", [0.5] * len(STATE_FIELDS))
+    msg.data = array.array("d", [0.5] * (len(STATE_FIELDS) + 2 * len(load_go1_spec().joint_names)))
     try:
         if role == "answer":
             while True:
@@ -65,14 +67,17 @@ def serve(role: str, count: int) -> dict[str, float] | None:
         while publisher.get_subscription_count() == 0 or node.count_publishers(in_topic) == 0:
             pump.pump(0.05)
         time.sleep(0.5)  # discovery settles
-        times = []
+        times, publishes = [], []
+        cpu_start = time.thread_time()
         for _ in range(count + 1):  # the first one warms the path up
             start = time.perf_counter()
             publisher.publish(msg)
+            publishes.append(time.perf_counter() - start)
             while not received:
                 pump.pump(1.0)
             received.clear()
             times.append(time.perf_counter() - start)
+        cpu_per_round_trip_us = (time.thread_time() - cpu_start) / (count + 1) * 1e6
         msg.data = array.array("d", [STOP])
         publisher.publish(msg)
         time.sleep(0.2)
@@ -82,6 +87,10 @@ def serve(role: str, count: int) -> dict[str, float] | None:
             "median_us": float(np.median(us)),
             "mean_us": float(us.mean()),
             "p90_us": float(np.percentile(us, 90)),
+            # What the asking thread spends of each round trip: its publish (to another process), and its
+            # CPU time (publish, wait, take and callback; not the other process's).
+            "publish_median_us": float(np.median(publishes[1:]) * 1e6),
+            "asker_cpu_per_round_trip_us": cpu_per_round_trip_us,
         }
     finally:
         pump.close()

@@ -8,7 +8,7 @@ from typing import Any
 
 import pytest
 
-from semexp_bt.bench.markdown import cell_text, metric_table
+from semexp_bt.bench.markdown import cell_text, metric_table, success_time_table
 from semexp_bt.bench.paper_results import write_paper_results
 from semexp_bt.bench.report import write_report
 from semexp_bt.bench.rows import STATUS_ERROR, STATUS_OK
@@ -18,6 +18,7 @@ from semexp_bt.bench.stats import (
     intervals_disjoint,
     latency_table,
     matched_rows,
+    success_times,
     summarize_rows,
 )
 from semexp_bt.bench.store import EPISODES_FILE
@@ -140,6 +141,24 @@ def test_latency_table_rates_on_the_sim_clock_and_medians_of_episodes() -> None:
     assert table["tick"]["rate_hz"] == pytest.approx(50.0)
 
 
+def test_success_times_are_the_median_simulated_time_of_the_successes_only() -> None:
+    rows = office_ours()  # seeds 0-2 succeed, seed 3 does not
+    for r, sim_s in zip(rows, (30.0, 10.0, 20.0, 5.0), strict=True):
+        r["sim_time_s"] = sim_s
+    rows.append(row("lab", "ours", 0, declared=True, distance_m=0.1, path_m=2, geodesic_m=2, sim_s=70.0))
+    rows.append(
+        row("lab", "ours", 1, declared=True, distance_m=2.0, path_m=2, geodesic_m=2, sim_s=1.0)
+    )  # too far
+    times = success_times(rows)
+    print(times)
+    assert times[("office", "ours")] == {"median_s": 20.0, "n": 3}
+    assert times[(ALL_SCENES, "ours")] == {"median_s": 25.0, "n": 4}
+    assert times[("lab", "ours")] == {"median_s": 70.0, "n": 1}
+    table = success_time_table(times, scenes=["office", "lab", "garden"], strategies=["ours"])
+    print(table)
+    assert table.splitlines()[-1] == "| Ours | 20.0 (3) | 70.0 (1) | - | 25.0 (4) |"
+
+
 def test_intervals_disjoint_only_when_strictly_above() -> None:
     assert intervals_disjoint([0.7, 1.0], [0.0, 0.3])
     assert not intervals_disjoint([0.2, 0.8], [0.0, 0.3])
@@ -162,6 +181,7 @@ def test_write_report_writes_tables_plots_and_failures(tmp_path: Path) -> None:
         assert f"plots/{name}" in text
     # Seed 3 declared nothing; seeds 0-2 declared within r_s: no false success yet.
     assert "## Success declared away from the goal\n\n0 of 4 episodes." in text
+    assert "| Ours | 10.0 (3) | 10.0 (3) |" in text  # the successes' median mission time
     rows[3]["success_declared"] = True  # now seed 3 declares success 3 m from the goal
     for r, wall_s in zip(rows, (1.0, 2.0, 3.0, 4.0), strict=False):
         r["wall_time_s"] = wall_s

@@ -62,6 +62,22 @@ def metric_table(
     return "\n".join(lines)
 
 
+def success_time_table(
+    times: Mapping[tuple[str, str], Mapping[str, float]], *, scenes: Sequence[str], strategies: Sequence[str]
+) -> str:
+    """Markdown of :func:`~semexp_bt.bench.stats.success_times`: one row per strategy, one column per scene
+    (+ pooled), cells ``median s (n)``; ``-`` where no episode succeeded."""
+    columns = list(scenes) + [ALL_SCENES]
+    lines = ["| strategy | " + " | ".join(columns) + " |", "| --- " * (len(columns) + 1) + "|"]
+    for strategy in strategies:
+        cells = []
+        for scene in columns:
+            cell = times.get((scene, strategy))
+            cells.append("-" if cell is None else f"{cell['median_s']:.1f} ({cell['n']:.0f})")
+        lines.append(f"| {STRATEGY_TITLES.get(strategy, strategy)} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
 def latency_markdown(
     table: Sequence[Mapping[str, Any]], *, paper: Mapping[str, tuple[str, str, str]] | None = None
 ) -> str:

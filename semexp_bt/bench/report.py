@@ -1,7 +1,8 @@
 """A sweep's report: ``write_report(DIR)`` reads ``DIR/episodes.jsonl`` and writes ``DIR/report.md``.
 
 The report holds the episodes by status; SR, SPL, OASR, SA and GNSA per scene x strategy (and pooled
-over scenes), each with its 95% interval (``bench.stats``, ``bench.markdown``); the episodes that
+over scenes), each with its 95% interval (``bench.stats``, ``bench.markdown``); the median mission time
+of the successful episodes; the episodes that
 declared success away from the goal; the throughput per fidelity; per-stage latency and rate; the
 plots (``bench.plots``); and the failed episodes with their error. Only finished rows
 (``status == "ok"``) enter the metrics. The file is written whole or not at all.
@@ -13,7 +14,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from semexp_bt.bench.markdown import latency_markdown, metric_table, status_table
+from semexp_bt.bench.markdown import latency_markdown, metric_table, status_table, success_time_table
 from semexp_bt.bench.plots import write_plots
 from semexp_bt.bench.protocol import REAL_SCENES, SIM_SCENES, TABLE_I_STRATEGIES, TABLE_II_STRATEGIES
 from semexp_bt.bench.rows import STATUS_OK
@@ -23,6 +24,7 @@ from semexp_bt.bench.stats import (
     false_successes,
     latency_table,
     ok_rows,
+    success_times,
     throughput_by_fidelity,
     wall_per_sim_second,
 )
@@ -78,6 +80,15 @@ def write_report(
             "",
             metric_table(summaries, metric, scenes=scenes, strategies=strategies),
         ]
+    parts += [
+        "",
+        "## Mission time of successful episodes",
+        "",
+        "Simulated seconds from the start to the declared success, median over the successful episodes"
+        " (their count in brackets).",
+        "",
+        success_time_table(success_times(rows), scenes=scenes, strategies=strategies),
+    ]
     wrong = false_successes(rows)
     parts += [
         "",

@@ -64,6 +64,22 @@ def cell_summaries(rows: Sequence[Mapping[str, Any]]) -> dict[tuple[str, str], d
     return out
 
 
+def success_times(rows: Sequence[Mapping[str, Any]]) -> dict[tuple[str, str], dict[str, float]]:
+    """``(scene, strategy)`` and ``(ALL_SCENES, strategy)`` -> the simulated mission time of the successful
+    episodes (success as SR counts it, :func:`semexp_bt.core.metrics.success`): ``median_s`` and ``n``.
+    Cells without a success are left out."""
+    groups: dict[tuple[str, str], list[float]] = {}
+    for row in ok_rows(rows):
+        radius = float(row.get("success_radius_m", metrics.DEFAULT_SUCCESS_RADIUS_M))
+        if row.get("sim_time_s") is None or not metrics.success(
+            to_episode_record(row), success_radius_m=radius
+        ):
+            continue
+        for cell in ((row["scene"], row["strategy"]), (ALL_SCENES, row["strategy"])):
+            groups.setdefault(cell, []).append(float(row["sim_time_s"]))
+    return {cell: {"median_s": float(np.median(times)), "n": len(times)} for cell, times in groups.items()}
+
+
 def matched_rows(
     rows: Sequence[Mapping[str, Any]], *, strategies: Sequence[str], scenes: Sequence[str]
 ) -> list[Mapping[str, Any]]:
