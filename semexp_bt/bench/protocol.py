@@ -64,7 +64,7 @@ class PaperProtocol:
         trials_evidence: trials per sim scene for each Table I baseline.
         trials_decision: trials per sim scene for each Table II baseline.
         trials_ablation: trials per sim scene for each Table IV ablation.
-        trials_reference: trials per scene (ten scenes) for nearest frontier and the oracle.
+        trials_reference: trials per scene (ten scenes) for nearest frontier and the oracle navigator.
     """
 
     trials_table_iii: int = 20

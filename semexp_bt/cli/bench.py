@@ -171,7 +171,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--trials-reference",
         type=non_negative_int,
         default=None,
-        help="trials per scene for the nearest-frontier and oracle references",
+        help="trials per scene for the nearest-frontier and oracle-navigator references",
     )
     paper.add_argument(
         "--smoke",
