@@ -14,7 +14,8 @@ obstacle geom near it (``mj_geomDistance``, exact for boxes and cylinders). An o
 "collision" set when a distance is <= 0 and the "clearance" set when it is < ``clearance_m``; each time
 an object enters a set a :class:`ContactEvent` is appended (edge-triggered with a 3 cm release
 hysteresis: pushing into a wall for 5 s is one event, backing off and touching it again is a second). ``min_clearance_m`` is the smallest distance
-at the last check, exact up to ``clearance_m + CLEARANCE_SENSE_MARGIN_M`` and ``inf`` beyond.
+at the last check, exact up to ``clearance_m + CLEARANCE_SENSE_MARGIN_M`` and ``inf`` beyond;
+``least_clearance_m`` the smallest since the start (a refused kinematic move counts as a touch, 0).
 
 Rendering happens only in :meth:`MujocoRobot.observe` and :meth:`MujocoRobot.observe_depth`; the GL
 context is created on the first call. ``observe_depth`` given the pixel grids its caller reads (the local
@@ -276,6 +277,7 @@ class MujocoRobot(Robot):
         self._in_collision: set[int] = set()
         self._in_clearance: set[int] = set()
         self._min_clearance_m = math.inf
+        self._least_clearance_m = math.inf
         self._clock_target_s = 0.0
         self._imu_sample: tuple[float, ImuReading] | None = None
 
@@ -375,6 +377,7 @@ class MujocoRobot(Robot):
             # The kinematic base stopped short of these objects: it touched them.
             for object_id, distance in blocked.items():
                 distances[object_id] = min(distance, distances.get(object_id, math.inf))
+        self._least_clearance_m = min(self._least_clearance_m, min(distances.values(), default=math.inf))
         self._record(distances)
         if self._fidelity == "dynamic":
             roll, pitch = _roll_pitch_from_quat(self.data.qpos[3:7])
@@ -578,7 +581,10 @@ class MujocoRobot(Robot):
 
     def safety(self) -> SafetyState:
         return SafetyState(
-            fallen=self._fallen, events=list(self._events), min_clearance_m=self._min_clearance_m
+            fallen=self._fallen,
+            events=list(self._events),
+            min_clearance_m=self._min_clearance_m,
+            least_clearance_m=self._least_clearance_m,
         )
 
     def _ready_camera(self) -> RgbdCamera:

@@ -161,7 +161,10 @@ def score_episode(
         "collision": bool(collisions or breaches),
         "collisions": len(collisions),
         "clearance_breaches": len(breaches),
-        "min_clearance_m": float(safety.min_clearance_m) if math.isfinite(safety.min_clearance_m) else None,
+        # Over the whole episode: the last step's distance says nothing of a breach a minute earlier.
+        "min_clearance_m": float(safety.least_clearance_m)
+        if math.isfinite(safety.least_clearance_m)
+        else None,
         "reached_object": None
         if reached is None
         else {

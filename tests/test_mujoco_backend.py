@@ -464,7 +464,9 @@ def test_kinematic_base_started_inside_a_wall_may_back_out_but_not_go_deeper() -
     assert robot.base_pose().x_m == pytest.approx(1.75)
     robot.command_twist(Twist(-0.5, 0.0, 0.0))
     robot.advance(1.0)
-    assert robot.base_pose().x_m < 1.4 and robot.safety().min_clearance_m > 0.0
+    safety = robot.safety()
+    assert robot.base_pose().x_m < 1.4 and safety.min_clearance_m > 0.0
+    assert safety.least_clearance_m < 0.0  # the episode's least is kept after backing out
 
 
 def test_outdoor_sky_is_background_with_no_depth() -> None:

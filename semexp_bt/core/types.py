@@ -297,11 +297,14 @@ class SafetyState:
         fallen: the base has tipped beyond the fall threshold (roll/pitch) or the trunk touches ground.
         events: contact and clearance events since the episode started, oldest first.
         min_clearance_m: smallest robot-to-obstacle distance seen in the last step.
+        least_clearance_m: smallest robot-to-obstacle distance since the episode started (what an episode
+            is scored on; ``inf`` where the backend does not measure distances, as on a real robot).
     """
 
     fallen: bool = False
     events: list[ContactEvent] = field(default_factory=list)
     min_clearance_m: float = math.inf
+    least_clearance_m: float = math.inf
 
 
 @dataclass(frozen=True)
