@@ -54,7 +54,8 @@ viewer-setup: $(STAMP)
 		DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium; } || \
 		{ echo "viewer-setup: install Debian's chromium (apt-get install chromium)"; exit 1; }
 
-# The view's tests; the last one saves the view of a mission over ROS 2 (the ROS 2 environment, loopback only).
+# The view's tests; the last line saves the view of a mission over ROS 2 and follows a live one in Chromium
+# (the ROS 2 environment, loopback only).
 viewer-test: viewer-setup $(ROS2_STAMP)
 	MUJOCO_GL=egl $(BIN)/python -m pytest -q -m 'viewer or browser'
-	MUJOCO_GL=egl bash scripts/ros2_isolated.sh $(ROS2_VENV)/bin/python -m pytest -q -m viewer tests/test_ros2_mission.py
+	MUJOCO_GL=egl bash scripts/ros2_isolated.sh $(ROS2_VENV)/bin/python -m pytest -q -m 'viewer or browser' tests/test_ros2_mission.py

@@ -244,6 +244,90 @@ def test_the_view_of_a_mission_over_ros2_is_saved_as_in_process(tmp_path: Path) 
     assert scored["ended_by"] == "mission_end" and scored["frames_published"] >= len(observed)
 
 
+#: The live-view mission's budget (robot seconds; in lockstep about a minute of wall time on the 2-core VM):
+#: long enough for Rerun's web viewer to compile on a software rasteriser while the mission still streams.
+LIVE_VIEW_BUDGET_S = 300
+#: An object no scene holds: the mission searches to its budget, so the page has a running mission to follow.
+ABSENT_OBJECT = "find the giraffe"
+
+
+@pytest.mark.browser
+def test_a_browser_follows_the_live_view_of_a_mission_over_ros2(
+    tmp_path: Path, browser_context: tuple[Any, list[str]]
+) -> None:
+    """``run --backend ros2 --view`` with the lockstep bridge: headless Chromium loads the page the
+    executive announces, sees the tree follow the running mission under the bridge's scene, and Rerun's
+    world view receive the executive's live stream. Needs Chromium and the viewer extras: ``make
+    viewer-test`` runs it in the ROS 2 environment, on loopback only. Lockstep, not realtime: the
+    browser compiling Rerun's viewer on two cores starves a realtime bridge past the sensor deadlines
+    (a first run halted on ``/imu: silent for 0.66 s``), which is the watchdog's job, not this test's."""
+    import re
+    import shutil
+
+    from tests.viewer_support import ARTIFACTS, RERUN_START_S, page_statuses
+    from tests.viewer_support import wait_for as wait_in_page
+
+    if shutil.which("chromium") is None:
+        pytest.fail("Chromium is missing: run `make viewer-test` (it installs Debian's chromium)")
+    context, outside = browser_context
+    scene, seed = EPISODES[0]
+    # BROWSER=true: the executive's "open the page" finds nothing to open; the test's Chromium loads it.
+    env = isolated_env(fresh_domain_id(), BROWSER="true")
+    mission = mission_with_budget(tmp_path / "mission", LIVE_VIEW_BUDGET_S)
+    bridge_log, executive_log, record = (
+        tmp_path / "bridge.log",
+        tmp_path / "executive.log",
+        tmp_path / "run.json",
+    )
+    bridge = semexp(
+        ["sim-bridge", "--scene", scene, "--seed", str(seed), "--max-wall-s", "600"],
+        env=env,
+        log=bridge_log,
+    )
+    wait_for_bridge(bridge_log, bridge)
+    try:
+        executive = semexp(
+            ["run", str(mission), "--backend", "ros2", "--seed", str(seed), "--relevance", "lexical",
+             "--instruction", ABSENT_OBJECT, "--view", "--json", str(record)],
+            env=env,
+            log=executive_log,
+        )  # fmt: skip
+        try:
+            announced = wait_for(
+                lambda: "view: http" in executive_log.read_text() or executive.poll() is not None,
+                timeout_s=120.0,
+            )
+            match = re.search(r"view: (http://\S+)", executive_log.read_text())
+            assert announced and match, executive_log.read_text()[-3000:]
+            page = context.new_page()
+            page.goto(match.group(1))
+            early = wait_in_page(page, "window.semexpView.ticks > 0 && window.semexpView.ticks", 60.0)
+            assert page.inner_text("#title").startswith(f"{scene} seed {seed} over ROS 2")
+            later = wait_in_page(
+                page, f"window.semexpView.ticks > {early} + 100 && window.semexpView.ticks", 60.0
+            )
+            statuses = page_statuses(page)
+            print({name: statuses[name] for name in ("Mission", "Search", "ExploreLoop", "Gait50Hz")})
+            assert statuses["Mission"] == "RUNNING" and statuses["Gait50Hz"] == "RUNNING"
+            assert page.evaluate("window.semexpView.shownTick") >= later  # following the running mission
+            # Rerun receives the live stream over gRPC from the executive's process.
+            wait_in_page(
+                page, "window.semexpView.rerun.ready && window.semexpView.rerun.time > 100", RERUN_START_S
+            )
+            ARTIFACTS.mkdir(parents=True, exist_ok=True)
+            page.screenshot(path=str(ARTIFACTS / "viewer-live-ros2.png"))
+            assert outside == [], f"the page tried to reach {outside}"
+            rc = executive.wait(timeout=LIVE_VIEW_BUDGET_S + 120)
+        finally:
+            stop(executive, dump_stacks=True)
+    finally:
+        stop(bridge, dump_stacks=True)
+        print(executive_log.read_text()[-3000:])
+    result = json.loads(record.read_text())
+    assert rc == 1 and result["outcome"] == "budget_exceeded"  # searched for what is not there, to the end
+    assert result["ticks"] >= later
+
+
 @pytest.mark.parametrize(
     ("stream", "deadline_key", "topic"),
     [

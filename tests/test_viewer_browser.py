@@ -16,7 +16,6 @@ import json
 import shutil
 import threading
 import time
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -27,23 +26,9 @@ from semexp_bt.app.viewer.observer import ViewObserver, ViewOptions
 from semexp_bt.app.viewer.replay import serve_recording
 from tests.test_viewer_observer import run_null_mission, states_from_records
 from tests.test_viewer_world import record_mujoco_view
+from tests.viewer_support import ARTIFACTS, RERUN_START_S, page_statuses, wait_for
 
 pytestmark = pytest.mark.browser
-
-CHROMIUM = "/usr/bin/chromium"
-#: Flags for a quiet, offline, throw-away browser (no sandbox: CI runs as root).
-CHROMIUM_FLAGS = [
-    "--headless",
-    "--no-sandbox",
-    "--disable-gpu",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--disable-sync",
-    "--no-first-run",
-]
-ARTIFACTS = Path(__file__).resolve().parents[1] / "runs" / "test-artifacts"
-#: The Rerun web viewer is 67 MB of WebAssembly compiled on a software rasteriser: allow it a while.
-RERUN_START_S = 90.0
 
 
 @pytest.fixture(scope="module")
@@ -55,56 +40,12 @@ def saved_view(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return directory
 
 
-@pytest.fixture
-def browser_context(tmp_path: Path) -> Iterator[tuple[Any, list[str]]]:
-    """A fresh Chromium profile whose requests to anything but loopback are refused and listed."""
-    from playwright.sync_api import sync_playwright
-
-    outside: list[str] = []
-
-    def guard(route: Any) -> None:
-        url = route.request.url
-        if url.startswith(("http://127.0.0.1", "http://localhost", "data:", "blob:")):
-            route.continue_()
-        else:
-            outside.append(url)
-            route.abort()
-
-    with sync_playwright() as playwright:
-        context = playwright.chromium.launch_persistent_context(
-            user_data_dir=str(tmp_path / "profile"),
-            executable_path=CHROMIUM,
-            args=CHROMIUM_FLAGS,
-            headless=True,
-            viewport={"width": 1600, "height": 1000},
-        )
-        context.route("**/*", guard)
-        try:
-            yield context, outside
-        finally:
-            context.close()
-
-
-def page_statuses(page: Any) -> dict[str, str]:
-    return page.eval_on_selector_all(
-        ".node", "els => Object.fromEntries(els.map(e => [e.dataset.name, e.dataset.status]))"
-    )
-
-
 def first_tick(lines: list[str], name: str, status: str) -> int:
     for line in lines:
         record = json.loads(line)
         if record["nodes"].get(name, {}).get("status") == status:
             return int(record["tick"])
     raise AssertionError(f"{name} never {status}")
-
-
-def wait_for(page: Any, expression: str, timeout_s: float) -> Any:
-    """Wait until ``expression`` is truthy in the page; its value. (A function, not a string to evaluate:
-    the page's content security policy forbids eval, and Playwright calls a function without it.)"""
-    function = f"() => ({expression})"
-    page.wait_for_function(function, timeout=timeout_s * 1000.0)
-    return page.evaluate(function)
 
 
 def test_replay_shows_the_tree_at_each_tick_and_rerun_moves_with_it(

@@ -1,9 +1,40 @@
-"""Shared by the view's tests: a saved view read back (the world through Rerun's own reader, the tick record)."""
+"""Shared by the view's tests: a saved view read back (the world through Rerun's own reader, the tick record),
+and a headless Chromium that may reach this machine only (the browser tests, in process and over ROS 2)."""
 
 from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
+
+CHROMIUM = "/usr/bin/chromium"
+#: Flags for a quiet, offline, throw-away browser (no sandbox: CI runs as root).
+CHROMIUM_FLAGS = [
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--no-first-run",
+]
+ARTIFACTS = Path(__file__).resolve().parents[1] / "runs" / "test-artifacts"
+#: The Rerun web viewer is 67 MB of WebAssembly compiled on a software rasteriser: allow it a while.
+RERUN_START_S = 90.0
+
+
+def page_statuses(page: Any) -> dict[str, str]:
+    return page.eval_on_selector_all(
+        ".node", "els => Object.fromEntries(els.map(e => [e.dataset.name, e.dataset.status]))"
+    )
+
+
+def wait_for(page: Any, expression: str, timeout_s: float) -> Any:
+    """Wait until ``expression`` is truthy in the page; its value. (A function, not a string to evaluate:
+    the page's content security policy forbids eval, and Playwright calls a function without it.)"""
+    function = f"() => ({expression})"
+    page.wait_for_function(function, timeout=timeout_s * 1000.0)
+    return page.evaluate(function)
 
 
 def timed_rows(world_path: Path) -> dict[str, list[int]]:
