@@ -11,7 +11,10 @@ changes from minute to minute, the fastest ``off`` and the fastest ``view`` may 
 - ``record``: ``--record`` (the JSONL tick record alone, for reference);
 - ``view``: ``--view-record DIR`` (tree records, world frames logged to world.rrd by the worker);
 - ``live``: ``--view`` and ``--view-record`` with the page and Rerun's gRPC stream served;
-- ``stalled``: as ``live``, with clients that connect to the page and the stream and never read.
+- ``stalled``: as ``live``, with four clients that ask the page for ticks and never read the answer,
+  and a Rerun viewer that pulls the gRPC stream and then freezes: ``rerun URL --save FILE`` (Rerun's own
+  client, headless), stopped with SIGSTOP once it has written its first bytes, and resumed and ended after
+  the mission.
 
 Usage:
     MUJOCO_GL=egl .venv/bin/python scripts/measure_viewer_cost.py --repeats 3 --sim-s 120
@@ -22,12 +25,15 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import signal
 import socket
 import statistics
 import subprocess
 import sys
 import tempfile
+import threading
 import time
+import urllib.request
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -43,18 +49,47 @@ def one_run(config: str, sim_s: float, workdir: Path) -> dict[str, float]:
     from semexp_bt.app.viewer.observer import ViewObserver, ViewOptions
 
     stalls: list[socket.socket] = []
+    frozen_viewers: list[subprocess.Popen[bytes]] = []
 
     def stall(url: str) -> None:
-        # Clients that ask and never read: a page that froze, a Rerun viewer that stopped pulling.
+        # Clients that ask and never read: pages that froze.
         host, port = url.split("//")[1].split("/")[0].split(":")
         for _ in range(4):
             client = socket.create_connection((host, int(port)))
             client.sendall(b"GET /api/ticks?after=0 HTTP/1.1\r\nHost: x\r\n\r\n")
             stalls.append(client)
+        # A Rerun viewer that stopped pulling the stream: Rerun's client, frozen once it has data.
+        with urllib.request.urlopen(url + "api/session") as answer:
+            grpc_url = json.loads(answer.read())["world"]["url"]
+        saved = workdir / "frozen_viewer.rrd"
+        viewer = subprocess.Popen(
+            [str(Path(sys.executable).with_name("rerun")), grpc_url, "--save", str(saved),
+             "--bind", "127.0.0.1", "--port", "auto"],
+            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+        )  # fmt: skip
+        frozen_viewers.append(viewer)
+
+        def freeze() -> None:
+            deadline = time.monotonic() + 30.0
+            while time.monotonic() < deadline and not (saved.is_file() and saved.stat().st_size > 0):
+                time.sleep(0.05)
+            viewer.send_signal(signal.SIGSTOP)
+
+        threading.Thread(target=freeze, daemon=True).start()
+
+    frozen: dict[str, float] = {}
 
     def hold(view: ViewObserver, outcome: str) -> None:
         for client in stalls:
             client.close()
+        for viewer in frozen_viewers:
+            # The viewer must have stayed stopped (state T) to the end, holding what it had pulled.
+            state = Path(f"/proc/{viewer.pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+            frozen["frozen_viewer_stopped"] = float(state == "T")
+            frozen["frozen_viewer_bytes"] = float((workdir / "frozen_viewer.rrd").stat().st_size)
+            viewer.send_signal(signal.SIGCONT)
+            viewer.terminate()
+            viewer.wait(timeout=10.0)
 
     view = None
     if config in ("view", "live", "stalled"):
@@ -79,6 +114,7 @@ def one_run(config: str, sim_s: float, workdir: Path) -> dict[str, float]:
     sim = float(record["sim_time_s"])
     out = {"wall_per_sim_s": wall / sim, "cpu_per_sim_s": cpu / sim, "sim_s": sim, "ticks": record["ticks"],
            "tick_p50_ms": record["tick_wall_ms"]["median"], "tick_p99_ms": record["tick_wall_ms"]["p99"]}  # fmt: skip
+    out.update(frozen)
     manifest = workdir / "view" / "manifest.json"
     if manifest.is_file():
         frames = json.loads(manifest.read_text())["frames"]
