@@ -8,7 +8,7 @@ from typing import Any
 
 import pytest
 
-from semexp_bt.bench.markdown import cell_text, metric_table, success_time_table
+from semexp_bt.bench.markdown import cell_text, metric_table, outcome_table, success_time_table
 from semexp_bt.bench.paper_results import write_paper_results
 from semexp_bt.bench.report import write_report
 from semexp_bt.bench.rows import STATUS_ERROR, STATUS_OK
@@ -18,6 +18,7 @@ from semexp_bt.bench.stats import (
     intervals_disjoint,
     latency_table,
     matched_rows,
+    outcomes_and_safety,
     success_times,
     summarize_rows,
 )
@@ -139,6 +140,32 @@ def test_latency_table_rates_on_the_sim_clock_and_medians_of_episodes() -> None:
     assert table["decision"]["p95_ms"] == pytest.approx(0.4)
     assert table["decision"]["calls_per_episode"] == pytest.approx(3.0)
     assert table["tick"]["rate_hz"] == pytest.approx(50.0)
+
+
+def test_outcomes_count_falls_and_episodes_that_touched_or_breached() -> None:
+    rows = office_ours()
+    outcomes = ("success", "success", "fallen", "budget_exceeded")
+    for r, outcome, contacts, breaches, least in zip(
+        rows, outcomes, (0, 2, 1, 0), (0, 3, 0, 1), (0.4, -0.01, None, 0.08), strict=True
+    ):
+        r.update(outcome=outcome, collisions=contacts, clearance_breaches=breaches, min_clearance_m=least)
+    rows.append(
+        row("office", "ours", 9, declared=False, distance_m=5, path_m=1, geodesic_m=1, status=STATUS_ERROR)
+    )
+    cells = outcomes_and_safety(rows)
+    print(cells)
+    assert cells == {
+        "ours": {
+            "episodes": 4,  # the errored episode is not one that ended
+            "outcomes": {"success": 2, "fallen": 1, "budget_exceeded": 1},
+            "with_contact": 2,
+            "with_breach": 2,
+            "least_clearance_m": 0.08,  # median of the three recorded
+        }
+    }
+    table = outcome_table(cells, strategies=["ours"])
+    print(table)
+    assert "| 4 | success 2, budget_exceeded 1, fallen 1 | 2 | 2 | 0.080 |" in table
 
 
 def test_success_times_are_the_median_simulated_time_of_the_successes_only() -> None:

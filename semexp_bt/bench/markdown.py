@@ -78,6 +78,29 @@ def success_time_table(
     return "\n".join(lines)
 
 
+def outcome_table(cells: Mapping[str, Mapping[str, Any]], *, strategies: Sequence[str]) -> str:
+    """Markdown of :func:`~semexp_bt.bench.stats.outcomes_and_safety`: one row per strategy; the outcomes
+    as ``name n`` by count, then the episodes with a contact and with a breach."""
+    lines = [
+        "| strategy | episodes | outcomes | with a contact | with a clearance breach | median least clearance (m) |",
+        "| --- | --- | --- | --- | --- | --- |",
+    ]
+    for strategy in strategies:
+        cell = cells.get(strategy)
+        if cell is None:
+            continue
+        outcomes = ", ".join(
+            f"{name} {count}"
+            for name, count in sorted(cell["outcomes"].items(), key=lambda kv: (-kv[1], kv[0]))
+        )
+        least = "-" if cell["least_clearance_m"] is None else f"{cell['least_clearance_m']:.3f}"
+        lines.append(
+            f"| {STRATEGY_TITLES.get(strategy, strategy)} | {cell['episodes']} | {outcomes} | "
+            f"{cell['with_contact']} | {cell['with_breach']} | {least} |"
+        )
+    return "\n".join(lines)
+
+
 def latency_markdown(
     table: Sequence[Mapping[str, Any]], *, paper: Mapping[str, tuple[str, str, str]] | None = None
 ) -> str:

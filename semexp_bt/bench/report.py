@@ -14,7 +14,13 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from semexp_bt.bench.markdown import latency_markdown, metric_table, status_table, success_time_table
+from semexp_bt.bench.markdown import (
+    latency_markdown,
+    metric_table,
+    outcome_table,
+    status_table,
+    success_time_table,
+)
 from semexp_bt.bench.plots import write_plots
 from semexp_bt.bench.protocol import REAL_SCENES, SIM_SCENES, TABLE_I_STRATEGIES, TABLE_II_STRATEGIES
 from semexp_bt.bench.rows import STATUS_OK
@@ -24,6 +30,7 @@ from semexp_bt.bench.stats import (
     false_successes,
     latency_table,
     ok_rows,
+    outcomes_and_safety,
     success_times,
     throughput_by_fidelity,
     wall_per_sim_second,
@@ -88,6 +95,15 @@ def write_report(
         " (their count in brackets).",
         "",
         success_time_table(success_times(rows), scenes=scenes, strategies=strategies),
+    ]
+    parts += [
+        "",
+        "## Outcomes and safety",
+        "",
+        "How the finished episodes ended (a fall ends as `fallen`), and how many touched an obstacle or came"
+        " closer than the clearance threshold at least once.",
+        "",
+        outcome_table(outcomes_and_safety(rows), strategies=strategies),
     ]
     wrong = false_successes(rows)
     parts += [

@@ -80,6 +80,30 @@ def success_times(rows: Sequence[Mapping[str, Any]]) -> dict[tuple[str, str], di
     return {cell: {"median_s": float(np.median(times)), "n": len(times)} for cell, times in groups.items()}
 
 
+def outcomes_and_safety(rows: Sequence[Mapping[str, Any]]) -> dict[str, dict[str, Any]]:
+    """Strategy -> how its finished episodes ended and what they touched: ``episodes``, ``outcomes`` (the
+    mission outcome -> count, e.g. ``success``, ``budget_exceeded``, ``fallen``), ``with_contact`` and
+    ``with_breach`` (episodes with at least one collision / clearance-breach event) and
+    ``least_clearance_m`` (the median over episodes of their least clearance, where recorded)."""
+    out: dict[str, dict[str, Any]] = {}
+    for row in ok_rows(rows):
+        cell = out.setdefault(
+            row["strategy"],
+            {"episodes": 0, "outcomes": {}, "with_contact": 0, "with_breach": 0, "clearances": []},
+        )
+        cell["episodes"] += 1
+        outcome = str(row.get("outcome", "?"))
+        cell["outcomes"][outcome] = cell["outcomes"].get(outcome, 0) + 1
+        cell["with_contact"] += int((row.get("collisions") or 0) > 0)
+        cell["with_breach"] += int((row.get("clearance_breaches") or 0) > 0)
+        if row.get("min_clearance_m") is not None:
+            cell["clearances"].append(float(row["min_clearance_m"]))
+    for cell in out.values():
+        clearances = cell.pop("clearances")
+        cell["least_clearance_m"] = float(np.median(clearances)) if clearances else None
+    return out
+
+
 def matched_rows(
     rows: Sequence[Mapping[str, Any]], *, strategies: Sequence[str], scenes: Sequence[str]
 ) -> list[Mapping[str, Any]]:
