@@ -15,7 +15,7 @@ obstacle geom near it (``mj_geomDistance``, exact for boxes and cylinders). An o
 an object enters a set a :class:`ContactEvent` is appended (edge-triggered with a 3 cm release
 hysteresis: pushing into a wall for 5 s is one event, backing off and touching it again is a second). ``min_clearance_m`` is the smallest distance
 at the last check, exact up to ``clearance_m + CLEARANCE_SENSE_MARGIN_M`` and ``inf`` beyond;
-``least_clearance_m`` the smallest since the start (a refused kinematic move counts as a touch, 0).
+``least_clearance_m`` the smallest since the start (a refused kinematic move counts as a touch: its penetration, <= 0).
 
 Rendering happens only in :meth:`MujocoRobot.observe` and :meth:`MujocoRobot.observe_depth`; the GL
 context is created on the first call. ``observe_depth`` given the pixel grids its caller reads (the local
