@@ -244,7 +244,7 @@ def test_the_view_of_a_mission_over_ros2_is_saved_as_in_process(tmp_path: Path) 
     assert scored["ended_by"] == "mission_end" and scored["frames_published"] >= len(observed)
 
 
-#: The live-view mission's budget (robot seconds; in lockstep about a minute of wall time on the 2-core VM):
+#: The live-view mission's budget (robot seconds; in lockstep 123 s of wall time on the loaded 2-core VM):
 #: long enough for Rerun's web viewer to compile on a software rasteriser while the mission still streams.
 LIVE_VIEW_BUDGET_S = 300
 #: An object no scene holds: the mission searches to its budget, so the page has a running mission to follow.
