@@ -89,7 +89,7 @@ def trace_merges(text: str) -> None:
             )
         return result
 
-    graph.TopologicalMemory._merge_observation = merge  # type: ignore[method-assign]
+    graph.TopologicalMemory._merge_observation = merge  # type: ignore[method-assign,assignment]
 
 
 def main() -> int:
