@@ -25,10 +25,8 @@ from __future__ import annotations
 import argparse
 import collections
 import math
-from pathlib import Path
 from typing import Any
 
-ROOT = Path(__file__).resolve().parents[1]
 #: Robot-to-object distances beyond this are not searched for the nearest geom (m).
 GEOM_SEARCH_M = 0.3
 
@@ -110,6 +108,7 @@ def main() -> int:
 
     torch.set_num_threads(1)
     from semexp_bt.app.episode import EpisodeOptions, run_episode
+    from semexp_bt.bench.sweep import default_mission_path
 
     counts: collections.Counter[str] = collections.Counter()
     if args.breaches:
@@ -118,7 +117,7 @@ def main() -> int:
         trace_merges(args.merges)
     record = run_episode(
         EpisodeOptions(
-            mission_path=ROOT / "trees" / "object_search.yaml",
+            mission_path=default_mission_path(),
             scene=args.scene,
             seed=args.seed,
             instruction=args.instruction,

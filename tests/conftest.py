@@ -14,7 +14,7 @@ from typing import Any
 import pytest
 from hypothesis import settings
 
-from tests.viewer_support import CHROMIUM, CHROMIUM_FLAGS
+from tests.viewer_support import CHROMIUM, CHROMIUM_FLAGS, require_chromium
 
 settings.register_profile("ci", derandomize=True, deadline=None, print_blob=True)
 settings.register_profile("explore", deadline=None, print_blob=True)
@@ -26,6 +26,8 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 def browser_context(tmp_path: Path) -> Iterator[tuple[Any, list[str]]]:
     """A fresh Chromium profile whose requests to anything but loopback are refused and listed."""
     from playwright.sync_api import sync_playwright
+
+    require_chromium()
 
     outside: list[str] = []
 

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import signal
 import subprocess
 import sys
@@ -261,14 +262,9 @@ def test_a_browser_follows_the_live_view_of_a_mission_over_ros2(
     viewer-test`` runs it in the ROS 2 environment, on loopback only. Lockstep, not realtime: the
     browser compiling Rerun's viewer on two cores starves a realtime bridge past the sensor deadlines
     (a first run halted on ``/imu: silent for 0.66 s``), which is the watchdog's job, not this test's."""
-    import re
-    import shutil
-
     from tests.viewer_support import ARTIFACTS, RERUN_START_S, page_statuses
     from tests.viewer_support import wait_for as wait_in_page
 
-    if shutil.which("chromium") is None:
-        pytest.fail("Chromium is missing: run `make viewer-test` (it installs Debian's chromium)")
     context, outside = browser_context
     scene, seed = EPISODES[0]
     # BROWSER=true: the executive's "open the page" finds nothing to open; the test's Chromium loads it.

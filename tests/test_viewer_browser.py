@@ -13,7 +13,6 @@ Needs Chromium (``apt-get install chromium``), the viewer and viewer-test extras
 from __future__ import annotations
 
 import json
-import shutil
 import threading
 import time
 from pathlib import Path
@@ -26,15 +25,14 @@ from semexp_bt.app.viewer.observer import ViewObserver, ViewOptions
 from semexp_bt.app.viewer.replay import serve_recording
 from tests.test_viewer_observer import run_null_mission, states_from_records
 from tests.test_viewer_world import record_mujoco_view
-from tests.viewer_support import ARTIFACTS, RERUN_START_S, page_statuses, wait_for
+from tests.viewer_support import ARTIFACTS, RERUN_START_S, page_statuses, require_chromium, wait_for
 
 pytestmark = pytest.mark.browser
 
 
 @pytest.fixture(scope="module")
 def saved_view(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    if shutil.which("chromium") is None:
-        pytest.fail("Chromium is missing: run `make viewer-test` (it installs Debian's chromium)")
+    require_chromium()  # before the recording, which takes a while
     directory = tmp_path_factory.mktemp("browser") / "road-0"
     record_mujoco_view(directory)
     return directory

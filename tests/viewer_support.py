@@ -4,8 +4,11 @@ and a headless Chromium that may reach this machine only (the browser tests, in 
 from __future__ import annotations
 
 import json
+import shutil
 from pathlib import Path
 from typing import Any
+
+import pytest
 
 CHROMIUM = "/usr/bin/chromium"
 #: Flags for a quiet, offline, throw-away browser (no sandbox: CI runs as root).
@@ -21,6 +24,12 @@ CHROMIUM_FLAGS = [
 ARTIFACTS = Path(__file__).resolve().parents[1] / "runs" / "test-artifacts"
 #: The Rerun web viewer is 67 MB of WebAssembly compiled on a software rasteriser: allow it a while.
 RERUN_START_S = 90.0
+
+
+def require_chromium() -> None:
+    """Fail with the command that installs it when Debian's Chromium is missing."""
+    if shutil.which("chromium") is None:
+        pytest.fail("Chromium is missing: run `make viewer-test` (it installs Debian's chromium)")
 
 
 def page_statuses(page: Any) -> dict[str, str]:

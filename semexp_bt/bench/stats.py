@@ -86,21 +86,20 @@ def outcomes_and_safety(rows: Sequence[Mapping[str, Any]]) -> dict[str, dict[str
     ``with_breach`` (episodes with at least one collision / clearance-breach event) and
     ``least_clearance_m`` (the median over episodes of their least clearance, where recorded)."""
     out: dict[str, dict[str, Any]] = {}
+    clearances: dict[str, list[float]] = {}
     for row in ok_rows(rows):
-        cell = out.setdefault(
-            row["strategy"],
-            {"episodes": 0, "outcomes": {}, "with_contact": 0, "with_breach": 0, "clearances": []},
-        )
+        strategy = row["strategy"]
+        cell = out.setdefault(strategy, {"episodes": 0, "outcomes": {}, "with_contact": 0, "with_breach": 0})
         cell["episodes"] += 1
         outcome = str(row.get("outcome", "?"))
         cell["outcomes"][outcome] = cell["outcomes"].get(outcome, 0) + 1
         cell["with_contact"] += int((row.get("collisions") or 0) > 0)
         cell["with_breach"] += int((row.get("clearance_breaches") or 0) > 0)
         if row.get("min_clearance_m") is not None:
-            cell["clearances"].append(float(row["min_clearance_m"]))
-    for cell in out.values():
-        clearances = cell.pop("clearances")
-        cell["least_clearance_m"] = float(np.median(clearances)) if clearances else None
+            clearances.setdefault(strategy, []).append(float(row["min_clearance_m"]))
+    for strategy, cell in out.items():
+        least = clearances.get(strategy)
+        cell["least_clearance_m"] = float(np.median(least)) if least else None
     return out
 
 
