@@ -120,11 +120,27 @@ def test_eq6_ema_position_step_and_potential_hand_worked() -> None:
     assert memory.graph.nodes[node]["observations"] == 2
     assert memory.graph.nodes[node]["updated_s"] == 2.0
 
-    memory.update(position_m=(5.04, 0.5, 0.0), label="chair", confidence=1.0, stamp_s=3.0)
+    stronger = memory.update(position_m=(5.04, 0.5, 0.0), label="chair", confidence=1.0, stamp_s=3.0)
+    assert not stronger.label_switched
     state = memory.node(node)
     assert state.confidence == pytest.approx(0.75 * 0.70 + 0.25 * 1.0)  # 0.775
     assert state.position_m[1] == pytest.approx(0.25 * 0.5)
+    assert state.potential == pytest.approx(1.0)  # more confident than the node: raised, same label
     memory.check_invariants()
+
+
+def test_the_potential_raise_does_not_depend_on_the_label_string() -> None:
+    """Equal evidence under two names leaves equal potentials (the phrasing benchmark's warehouse_b)."""
+    potentials = {}
+    for label in ("fire extinguisher", "extinguisher"):
+        memory = fresh()
+        node = insert(memory, (0.0, 0.0, 0.0), confidence=0.6, label="fire extinguisher")
+        memory.scale_potential(node_id=node, factor=0.5)  # a rejected confirmation: 0.6 -> 0.3
+        update = memory.update(position_m=(0.1, 0.0, 0.0), label=label, confidence=0.9, stamp_s=2.0)
+        assert update.label_switched == (label != "fire extinguisher")
+        assert "potential 0.300 -> 0.900" in update.reason
+        potentials[label] = memory.node(node).potential
+    assert potentials == {"fire extinguisher": pytest.approx(0.9), "extinguisher": pytest.approx(0.9)}
 
 
 def test_label_switches_only_when_the_new_confidence_beats_the_node() -> None:
@@ -196,7 +212,7 @@ def test_merge_move_fuses_same_label_but_holds_still_for_another_label() -> None
     state = memory.node(a)
     assert state.position_m[0] == pytest.approx(0.125)
     assert state.confidence == pytest.approx(0.85)
-    assert state.potential == pytest.approx(0.8)
+    assert state.potential == pytest.approx(1.0)  # C_f 1.0 beat a's 0.8: raised before the fusion
     assert memory.graph.nodes[a]["observations"] == 3
     memory.check_invariants()
 
@@ -219,7 +235,7 @@ def test_fusion_stops_when_the_moved_node_is_absorbed() -> None:
     result = memory.update(position_m=(0.6, 0.0, 0.0), label="chair", confidence=1.0, stamp_s=2.0)
     assert (result.node_id, result.fused_node_ids) == (b, (a,))
     assert c in memory and memory.node(b).position_m == (0.85, 0.65, 0.0)
-    assert memory.node(b).potential == pytest.approx(0.9)
+    assert memory.node(b).potential == pytest.approx(1.0)  # the larger: a's, raised by C_f 1.0
     memory.check_invariants()
 
 

@@ -237,11 +237,11 @@ class TopologicalMemory:
         """Fold one arbitrated target (P_vc of Eq. 5, L_t, C_f) into the memory (Eq. 6).
 
         * nearest node within delta_d (inclusive): merge. Confidence follows the EMA
-          ``C <- (1 - rho) C + rho C_f``; the label switches to the observation's when C_f beats the
-          node's confidence before the EMA (the potential is then raised to at least C_f: a new semantic
-          hypothesis is worth a visit); the position moves towards the observation by the fraction
-          ``rho * C_f`` (the master never moves), and if that brings it within delta_d of another node
-          the two fuse.
+          ``C <- (1 - rho) C + rho C_f``. When C_f beats the node's confidence before the EMA, the
+          potential is raised to at least C_f (stronger evidence is worth a visit, whatever it is
+          called) and the label switches to the observation's. The position moves towards the
+          observation by the fraction ``rho * C_f`` (the master never moves), and if that brings it
+          within delta_d of another node the two fuse.
         * no node within delta_d and C_f > cf_gate: insert a node with P_explore = C_f, linked to every
           node within delta_r or, if none, to the k nearest.
         * no node within delta_d and C_f <= cf_gate: reject (reported, memory unchanged).
@@ -669,10 +669,15 @@ class TopologicalMemory:
         cfg = self.config
         a = self._attrs[n]
         old_c = a["confidence"]
-        switched = label != a["label"] and c_f > old_c
+        more_confident = c_f > old_c
+        switched = more_confident and label != a["label"]
         if switched:
             a["label"] = label
-            a["potential"] = max(a["potential"], c_f)
+        old_potential = a["potential"]
+        if more_confident:
+            # Compared by evidence, not by name: whether the VLM's word for the object equals the
+            # instruction's must not decide whether the node is worth a visit (docs/memory.md).
+            a["potential"] = max(old_potential, c_f)
         a["confidence"] = _clamp_unit((1.0 - cfg.rho) * old_c + cfg.rho * c_f)
         a["observations"] += 1
         a["updated_s"] = stamp
@@ -705,6 +710,8 @@ class TopologicalMemory:
         )
         if switched:
             reason += f"; label -> {label!r}"
+        if a["potential"] > old_potential:
+            reason += f"; potential {old_potential:.3f} -> {a['potential']:.3f}"
         if fused:
             reason += f"; moved onto and fused with {fused}"
         if held_still:
