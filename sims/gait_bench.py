@@ -36,6 +36,7 @@ from robots.gait_policy import (
     OBS_DIM,
     GaitPolicy,
     NearFallRecovery,
+    StanceHold,
     load_policy,
     ramp_command,
 )
@@ -170,8 +171,9 @@ def _run(
 ) -> tuple[int, _Stats, FloatArray]:
     """Step ``env`` under ``policy`` for ``steps``; ``on_step(k, env)`` may change commands or push.
 
-    With ``ramp`` the commands are ramped as :class:`GaitController` ramps them, and with ``recovery``
-    also held at zero through near falls as it does (:class:`NearFallRecovery`)."""
+    With ``ramp`` the commands are ramped as :class:`GaitController` ramps them, its stance hold fades
+    the residual at a zero command (:class:`StanceHold`), and with ``recovery`` they are also held at zero
+    through near falls as it does (:class:`NearFallRecovery`)."""
     stats = _Stats()
     falls = np.zeros(env.num_envs, dtype=int)
     obs = env.observe(noisy=False)
@@ -181,6 +183,8 @@ def _run(
     requested = env.commands.copy()
     ramped = np.zeros_like(requested) if ramp else requested
     near_fall = NearFallRecovery(env.num_envs)
+    stance = StanceHold(env.num_envs)
+    share = np.ones(env.num_envs)
     for k in range(steps):
         if on_step is not None:
             env.commands[:] = requested
@@ -194,11 +198,12 @@ def _run(
             asked = np.where(holding[:, None], 0.0, requested)
             ramped = ramp_command(ramped, asked)
             env.commands[:] = ramped
+            share = stance.update((policy.prior.gate(ramped) <= 0.0) & ~holding)
             obs = env.observe(noisy=False)
         elif on_step is not None:
             obs = env.observe(noisy=False)
         before = env.prev_targets.copy()
-        _, _, done, info = env.step(policy.actor(obs))
+        _, _, done, info = env.step(share[:, None] * policy.actor(obs))
         obs = env.observe(noisy=False)
         since_change += CONTROL_DT_S
         falls += info["terminated"].astype(int)

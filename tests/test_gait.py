@@ -228,6 +228,18 @@ def _drive(robot: MujocoRobot, twist: Twist, seconds: float, checkpoint: str | N
         robot.advance(0.02)
 
 
+def _tick(controller: GaitController, robot: MujocoRobot, twist: Twist, ticks: int) -> None:
+    for _ in range(ticks):
+        controller(robot, twist)
+        robot.advance(0.02)
+
+
+def _tip_trunk(robot: MujocoRobot, roll_rad: float) -> None:
+    """Roll the trunk by ``roll_rad`` about x in place."""
+    robot.data.qpos[3:7] = [math.cos(0.5 * roll_rad), math.sin(0.5 * roll_rad), 0.0, 0.0]
+    mujoco.mj_forward(robot.model, robot.data)  # the IMU's orientation sensor reads the new pose
+
+
 def test_controller_stands_on_a_zero_command() -> None:
     robot = _flat_robot()
     try:
@@ -344,15 +356,85 @@ def test_controller_stops_walking_through_a_near_fall() -> None:
     robot = _flat_robot()
     try:
         controller = GaitController(load_policy())
-        for _ in range(100):
-            controller(robot, Twist(0.8, 0.0, 0.0))
-            robot.advance(0.02)
+        _tick(controller, robot, Twist(0.8, 0.0, 0.0), 100)
         assert controller.command[0] == pytest.approx(0.8)
         # Tip the trunk by 0.4 rad about x: the next ticks ramp the command down instead of walking on.
-        robot.data.qpos[3:7] = [math.cos(0.2), math.sin(0.2), 0.0, 0.0]
-        mujoco.mj_forward(robot.model, robot.data)  # the IMU's orientation sensor reads the new pose
+        _tip_trunk(robot, 0.4)
         controller(robot, Twist(0.8, 0.0, 0.0))
         assert controller.recovering and controller.near_falls == 1
         assert controller.command[0] < 0.8
+    finally:
+        robot.close()
+
+
+def test_stance_hold_fades_the_residual_out_when_idle_and_back_in_when_not() -> None:
+    from robots.gait_policy import STANCE_FADE_S, StanceHold
+
+    stance = StanceHold(2, control_dt_s=0.02)
+    fade_ticks = int(round(STANCE_FADE_S / 0.02))
+    walking = np.array([False, False])
+    for _ in range(fade_ticks):
+        share = stance.update(walking)
+    np.testing.assert_allclose(share, [1.0, 1.0])
+    # The first robot stops: its share falls one step per tick and stays at zero; the second walks on.
+    idle = np.array([True, False])
+    first = stance.update(idle)
+    assert 0.0 < first[0] < 1.0 and first[1] == 1.0
+    for _ in range(fade_ticks):
+        share = stance.update(idle)
+    np.testing.assert_allclose(share, [0.0, 1.0])
+    # Asked to walk again, the share climbs back over the same time.
+    for _ in range(fade_ticks - 1):
+        share = stance.update(walking)
+    assert 0.9 < share[0] < 1.0
+    np.testing.assert_allclose(stance.update(walking), [1.0, 1.0])
+
+
+def test_controller_stands_on_the_prior_alone_after_a_stop() -> None:
+    from robots.gait_policy import STANCE_FADE_S
+
+    robot = _flat_robot()
+    try:
+        controller = GaitController(load_policy())
+        _tick(controller, robot, Twist(0.5, 0.0, 0.0), 100)
+        # Walking, the residual is applied in full.
+        assert np.abs(controller.last_action).max() > 0.0
+        assert controller.stance.share[0] == 1.0
+        # Stopped: the command ramps down (0.25 s at 2 m/s^2), then the residual fades out.
+        _tick(controller, robot, Twist.zero(), int(round((0.25 + STANCE_FADE_S) / 0.02)) + 2)
+        assert controller.stance.share[0] == 0.0
+        np.testing.assert_array_equal(controller.last_action, np.zeros(12))
+        # What the legs are given is the prior's standing target (its IK of the nominal feet), nothing more.
+        prior_stand = controller.policy.prior.joint_targets(np.array([controller.phase]), np.zeros((1, 3)))[0]
+        np.testing.assert_allclose(robot.data.ctrl, prior_stand, atol=1e-12)
+        # Settled, the trunk stands still: the residual policy alone sways it at about 0.026 m/s (median)
+        # on flat ground (docs/gait.md, "Stance hold"); the prior's stance, below 0.001 m/s.
+        _tick(controller, robot, Twist.zero(), 90)
+        speeds = []
+        previous = robot.base_pose()
+        for _ in range(150):
+            controller(robot, Twist.zero())
+            robot.advance(0.02)
+            pose = robot.base_pose()
+            speeds.append(math.hypot(pose.x_m - previous.x_m, pose.y_m - previous.y_m) / 0.02)
+            previous = pose
+        print(f"standing trunk speed: median {np.median(speeds):.4f}, max {max(speeds):.4f} m/s")
+        assert np.median(speeds) < 0.005
+        assert not robot.safety().fallen
+    finally:
+        robot.close()
+
+
+def test_a_recovering_controller_keeps_the_full_residual_at_a_zero_command() -> None:
+    robot = _flat_robot()
+    try:
+        controller = GaitController(load_policy())
+        _tick(controller, robot, Twist(0.8, 0.0, 0.0), 100)
+        _tip_trunk(robot, 0.4)
+        # 0.8 s at a zero command, twice the fade, without advancing: the trunk stays tipped.
+        for _ in range(40):
+            controller(robot, Twist.zero())
+        assert controller.recovering
+        assert controller.stance.share[0] == 1.0
     finally:
         robot.close()
