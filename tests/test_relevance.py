@@ -217,6 +217,35 @@ def test_embedding_relevance_batch_in_unit_interval(embedding) -> None:
     assert embedding.scores(instruction="find the chair", labels=[]).shape == (0,)
 
 
+def test_embedding_relevance_is_one_query_per_concept(embedding) -> None:
+    labels = ["quadruped robot", "toy robot dog", "robot arm", "sofa", "grey chair", "legged robot"]
+    wordings = ["find the quadruped robot", "where is the robot dog?", "look for robotic dogs", "QUADRUPED"]
+    values = [embedding.scores(instruction=w, labels=labels) for w in wordings]
+    for other in values[1:]:
+        np.testing.assert_array_equal(other, values[0])
+    # Every name of the concept is the concept; related classes stay below it.
+    assert values[0][0] == values[0][5] == 1.0
+    assert values[0][1] < 1.0 and values[0][3] == pytest.approx(0.0, abs=0.05)
+    # Attributes take part, in any order; a phrase outside the lexicon is its own query.
+    big_red = embedding.scores(instruction="the big red bin", labels=labels + ["red trash can"])
+    red_large = embedding.scores(instruction="red large bins", labels=labels + ["red trash can"])
+    np.testing.assert_array_equal(big_red, red_large)
+    assert big_red[-1] < 1.0  # "large red trash can" is the name; a label without the size is not it
+    assert embedding.score(instruction="find the piano stool", label="piano stool") == pytest.approx(1.0)
+
+
+def test_concept_names_are_one_tuple_per_request() -> None:
+    from semexp_bt.core.language import OBJECT_LEXICON, concept_names
+
+    assert concept_names("robot dogs") == concept_names("the Quadruped Robot") == concept_names("quadruped")
+    assert len(concept_names("robot dog")) == len(OBJECT_LEXICON["quadruped_robot"])
+    assert concept_names("big red bin") == concept_names("red large bins")
+    assert all(name.startswith("large red ") for name in concept_names("big red bin"))
+    assert concept_names("grey couch") == ("grey couch", "grey settee", "grey sofa")
+    assert concept_names("toy robot dog") == ("toy robot dog",)
+    assert concept_names("piano stool") == ("piano stool",)
+
+
 def test_cosine_mapping_and_factory() -> None:
     from semexp_bt.app.components import UnknownComponentError, build_relevance
     from semexp_bt.perception.embedding_relevance import (

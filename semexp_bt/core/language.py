@@ -231,6 +231,38 @@ def canonical_tokens(phrase: str) -> tuple[tuple[str, ...], str | None]:
     return tokens, head
 
 
+def concept_names(phrase: str) -> tuple[str, ...]:
+    """Every name of the one lexicon concept an object phrase names, each with the phrase's attributes.
+
+    The names come sorted and the attributes in one order (sizes, then colours, each normalised and
+    sorted), so every wording of one request gives the same tuple: "robot dogs", "the quadruped robot"
+    and "Robotic dog" all give the names of ``quadruped_robot``; "big red bin" and "red large bin" the
+    same attributed names. A phrase whose object words are not exactly one lexicon name ("toy robot dog",
+    "piano stool", a word the lexicon does not know) gives itself, unchanged.
+
+    Example:
+        >>> concept_names("grey couches")
+        ('grey couch', 'grey settee', 'grey sofa')
+        >>> concept_names("toy robot dog")
+        ('toy robot dog',)
+    """
+    words = [normalise_word(w) for w in words_of(phrase)]
+    nouns = tuple(w for w in words if not is_attribute(w) and w not in STOPWORDS)
+    concept = _concept_of_name().get(nouns)
+    if concept is None:
+        return (phrase,)
+    colours, sizes = attribute_words(w for w in words if is_attribute(w))
+    prefix = " ".join([*sorted(sizes), *sorted(colours)])
+    names = sorted({" ".join(singularise(w) for w in words_of(name)) for name in OBJECT_LEXICON[concept]})
+    return tuple(f"{prefix} {name}" if prefix else name for name in names)
+
+
+@functools.cache
+def _concept_of_name() -> dict[tuple[str, ...], str]:
+    """A lexicon name's words (singular) -> its concept."""
+    return dict(_lexicon_phrases())
+
+
 def is_attribute(word: str) -> bool:
     """Whether ``word`` is a colour or a size word."""
     return COLOUR_VARIANTS.get(word, word) in COLOURS or word in SIZES

@@ -13,6 +13,13 @@ MiniLM gives short unrelated object phrases cosines of about 0.0-0.35 (median ab
 sends most of them to 0 or near it while keeping an ordering among related ones
 ("fire extinguisher" vs "extinguisher": cos 0.87 -> S 0.81).
 
+One request, one query, whatever its wording: when the object phrase names a concept of the object
+lexicon (``semexp_bt.core.language.concept_names``), ``e_target`` is the normalised mean of the
+embeddings of all the concept's names, with the phrase's attributes (CLIP's prompt ensembling, Radford
+et al. 2021, Sec. 3.1.4, over synonyms instead of templates), and a label that is one of those names
+scores 1. "The robot dog" and "the quadruped robot" then score every label alike, so the mission does
+not change with the synonym the user picked (issue #18; docs/decision.md, "One query per concept").
+
 This is an app module (it imports torch lazily, on first use). It calls ``torch.set_num_threads(1)``
 when it loads, as every process that steps the simulator must.
 """
@@ -29,11 +36,15 @@ from typing import Any
 import numpy as np
 
 from semexp_bt.core.instruction import instruction_target
+from semexp_bt.core.language import concept_names
 from semexp_bt.core.relevance import FloatArray
 
 #: Cosine similarity that maps to relevance 0 (the "unrelated" floor of all-MiniLM-L6-v2 on short
 #: object phrases, measured on the product vocabulary; see docs/decision.md).
 COSINE_FLOOR = 0.3
+
+#: Cosine at or above which two phrases' embeddings are the same phrase's (float rounding only).
+SAME_PHRASE_COSINE = 1.0 - 1e-6
 
 #: Environment switches that keep Hugging Face libraries from touching the network.
 OFFLINE_ENV: dict[str, str] = {"HF_HUB_OFFLINE": "1", "TRANSFORMERS_OFFLINE": "1"}
@@ -120,10 +131,15 @@ class EmbeddingRelevance:
     def scores(self, *, instruction: str, labels: Sequence[str]) -> FloatArray:
         if not labels:
             return np.zeros(0, dtype=float)
-        target = instruction_target(instruction)
-        vectors = self.embed([target, *labels])
-        cosines = vectors[1:] @ vectors[0]
-        return cosine_to_relevance(cosines, cosine_floor=self.cosine_floor)
+        names = concept_names(instruction_target(instruction))
+        vectors = self.embed([*names, *labels])
+        query = vectors[: len(names)].mean(axis=0)
+        query /= np.linalg.norm(query)
+        label_vectors = vectors[len(names) :]
+        cosines = label_vectors @ query
+        # A label that is one of the concept's names is the concept (its cosine with the mean is lower).
+        is_a_name = (label_vectors @ vectors[: len(names)].T).max(axis=1) >= SAME_PHRASE_COSINE
+        return cosine_to_relevance(np.where(is_a_name, 1.0, cosines), cosine_floor=self.cosine_floor)
 
 
 @functools.lru_cache(maxsize=1)
