@@ -6,7 +6,8 @@ processes with a counter of thread CPU time (``time.thread_time``) around each o
 server are named) from ``/proc``. It prints, for each part, the least CPU time over ``--repeats`` runs
 (CPU time on a shared machine only grows with the load) in milliseconds per simulated second. The
 parts nest (``record_tick`` holds ``node_entries`` ...); each counter costs about a microsecond a call,
-so the small parts called every tick read high.
+so the small parts called every tick read high. The view's start and end (:data:`WALL_PARTS`) are
+counted in wall time, in the same unit: the mission waits for them whole, CPU or not.
 
 Usage:
     MUJOCO_GL=egl .venv/bin/python scripts/profile_viewer_parts.py --config view --repeats 3 --sim-s 120
@@ -57,20 +58,30 @@ PARTS = (
     ("semexp_bt.app.viewer.world", "WorldLogger", "_log_map", "worker: map and path"),
     ("semexp_bt.app.viewer.world", "WorldLogger", "_log_memory", "worker: memory and graph"),
     ("semexp_bt.app.viewer.recording", "RecordingWriter", "flush", "worker: ticks.jsonl"),
-    ("semexp_bt.app.viewer.observer", "", "_rerun_sink", "setup: import Rerun, open its sinks"),
+    ("semexp_bt.app.viewer.observer", "", "_import_rerun", "setup: import Rerun (a thread, from the start)"),
+    ("semexp_bt.app.viewer.observer", "", "_rerun_sink", "setup: open Rerun's sinks"),
+)
+#: ``(module, class, function, label)``: parts counted in wall time, not CPU time: the mission waits for
+#: them whole, and what they wait for (an import on another thread, the worker's last batch, the page
+#: server's shutdown) is no CPU time of theirs.
+WALL_PARTS = (
+    ("semexp_bt.app.viewer.observer", "ViewObserver", "start", "wall: the view's start (the mission waits)"),
+    ("semexp_bt.app.viewer.observer", "ViewObserver", "finish", "wall: the view's end (the mission waits)"),
 )
 #: How often the native threads' CPU time is read (wall s): they end before the mission returns.
 THREAD_SAMPLE_S = 0.2
 
 
-def _count(function: Callable[..., Any], totals: list[float]) -> Callable[..., Any]:
+def _count(
+    function: Callable[..., Any], totals: list[float], clock: Callable[[], float] = time.thread_time
+) -> Callable[..., Any]:
     @functools.wraps(function)
     def counted(*args: Any, **kwargs: Any) -> Any:
-        start = time.thread_time()
+        start = clock()
         try:
             return function(*args, **kwargs)
         finally:
-            totals[0] += time.thread_time() - start
+            totals[0] += clock() - start
             totals[1] += 1
 
     return counted
@@ -94,11 +105,12 @@ def _thread_cpu_s() -> dict[int, tuple[str, float]]:
 def profile_run(config: str, sim_s: float, workdir: Path) -> dict[str, Any]:
     """One mission with the counters in place: each part's CPU s and calls, each native thread's CPU s."""
     totals: dict[str, list[float]] = {}
-    for module_name, owner_name, function_name, label in PARTS:
-        module = importlib.import_module(module_name)
-        owner = getattr(module, owner_name) if owner_name else module
-        totals[label] = [0.0, 0]
-        setattr(owner, function_name, _count(getattr(owner, function_name), totals[label]))
+    for parts, clock in ((PARTS, time.thread_time), (WALL_PARTS, time.perf_counter)):
+        for module_name, owner_name, function_name, label in parts:
+            module = importlib.import_module(module_name)
+            owner = getattr(module, owner_name) if owner_name else module
+            totals[label] = [0.0, 0]
+            setattr(owner, function_name, _count(getattr(owner, function_name), totals[label], clock))
     seen: dict[int, tuple[str, float]] = {}
     before = _thread_cpu_s()
     stop = threading.Event()
@@ -143,7 +155,7 @@ def main() -> int:
     print(f"{args.config}: {sim_s:.1f} s simulated; least of {args.repeats} runs")
     print("| part | CPU ms per sim s | calls |")
     print("| --- | --- | --- |")
-    for _, _, _, label in PARTS:
+    for _, _, _, label in (*PARTS, *WALL_PARTS):
         cpu_s = min(run["parts"][label][0] for run in runs)
         if cpu_s > 0.0:
             print(f"| {label} | {1e3 * cpu_s / sim_s:.2f} | {runs[0]['parts'][label][1]:.0f} |")

@@ -9,19 +9,22 @@ can state exactly what the robot must do. Each test prints the tree it asserts o
 
 from __future__ import annotations
 
+import dataclasses
+import enum
 import io
 import json
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import py_trees
 import pytest
 
 from behaviours.services import MissionServices
-from blackboard.schema import SCHEMA, SchemaError, checked_write, register_keys
+from blackboard.schema import SCHEMA, SchemaError, checked_write, register_keys, summarize
 from robots.null_robot import NullRobot
 from semexp_bt.app.executive import MissionTree, build_tree, prepare_board
 from semexp_bt.app.recorder import TickRecorder, replay
@@ -29,7 +32,15 @@ from semexp_bt.app.runner import MissionRun
 from semexp_bt.core.config import SemExpConfig
 from semexp_bt.core.memory import TopologicalMemory
 from semexp_bt.core.relevance import CachedRelevance, LexicalRelevance
-from semexp_bt.core.types import Detection, Observation, Pose2D, SceneEvidence, SceneProposal, Subgoal
+from semexp_bt.core.types import (
+    Detection,
+    Observation,
+    Pose2D,
+    SceneEvidence,
+    SceneProposal,
+    Subgoal,
+    Twist,
+)
 from semexp_bt.nav.pure_pursuit import RegulatedPurePursuit
 from semexp_bt.perception.interface import PerceptionResult
 from sims.scripted_perception import ScriptedPerception
@@ -321,6 +332,61 @@ def test_schema_refuses_unknown_keys_wrong_types_and_undeclared_remaps() -> None
     with pytest.raises(SchemaError, match="expects"):
         checked_write(client, "mission_outcome", 3)
     assert set(SCHEMA) >= {"memory", "subgoal", "target", "cmd_twist", "mission_outcome"}
+
+
+@dataclass(frozen=True)
+class _Leaf:
+    label: str
+    score: float
+
+
+class _Kind(enum.Enum):
+    NEAR = "near"
+
+
+@dataclass
+class _Branch:
+    twist: Twist
+    leaves: list[_Leaf]
+    kind: _Kind = _Kind.NEAR
+    trajectory: np.ndarray = field(default_factory=lambda: np.zeros((40, 3)))
+    scores: dict[str, float] = field(default_factory=lambda: {"path": 0.5, "goal": math.inf})
+    candidates: tuple[int, int] = (12, 3)
+
+
+@dataclass
+class _Tree:
+    branch: _Branch
+    pair: tuple[_Leaf, _Leaf]
+    numbers: list[float]
+
+
+def test_a_summary_reads_a_dataclass_as_asdict_copies_it() -> None:
+    """The tick record's summaries skip ``asdict``'s deep copy where it copies a field into an equal value;
+    what they say is what summarising ``asdict``'s copy says, nested dataclasses and long lists included."""
+
+    def through_asdict(value: Any) -> dict[str, Any]:  # the summary as it was, from asdict's copy
+        out = {}
+        for key, item in dataclasses.asdict(value).items():
+            if isinstance(item, np.ndarray) and item.size > 16:
+                continue
+            if isinstance(item, (list, tuple)) and len(item) > 20:
+                item = f"<{len(item)} items>"
+            out[key] = summarize(item)
+        return out
+
+    short = [_Leaf("chair", 0.25)]
+    long = [_Leaf(f"leaf {i}", i / 7) for i in range(30)]
+    values = [
+        Twist(0.3, 0.0, -0.1),
+        _Branch(Twist(0.2, 0.1, 0.0), short),
+        _Branch(Twist(0.2, 0.1, 0.0), long, trajectory=np.arange(6.0).reshape(2, 3)),
+        _Tree(_Branch(Twist(), short), (short[0], short[0]), [0.5] * 25),
+        _Tree(_Branch(Twist(), long), (short[0], short[0]), [0.5, math.nan]),  # a nested long list, printed
+        Subgoal(node_id=3, position_m=(1.0, 2.0, 0.0), label="door", utility=0.75),
+    ]
+    for value in values:
+        assert json.dumps(summarize(value)) == json.dumps(through_asdict(value)), value
 
 
 def test_remapped_memory_key_is_what_the_behaviours_use(tmp_path: Path) -> None:

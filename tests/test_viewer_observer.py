@@ -33,6 +33,7 @@ from semexp_bt.app.viewer.maps import (
     UNKNOWN_CELL,
     map_layer,
     map_version,
+    occupancy_values,
 )
 from semexp_bt.app.viewer.observer import ViewObserver, ViewOptions
 from semexp_bt.app.viewer.recording import (
@@ -330,6 +331,20 @@ def test_the_map_layer_is_the_costmap_in_ros_order_from_its_corner_with_the_path
     np.testing.assert_array_equal(layer.path_xy, plan.path_xy)
     moved = GlobalPlan("ok", plan.path_xy[::-1], (1.2, 2.5), 1.7, costmap.revision, stamp_s=1.0)
     assert map_version({"/local_map": costmap, "/global_plan": moved}) != layer.version
+
+
+def test_the_map_cells_translate_nav2_costs_as_nav2s_costmap_publisher() -> None:
+    costs = np.arange(256, dtype=np.uint8)
+    cells = occupancy_values(costs.reshape(16, 16)).ravel().astype(int)
+    assert (cells[0], cells[253], cells[254], cells[255]) == (
+        FREE_CELL,
+        INSCRIBED_CELL,
+        OCCUPIED_CELL,
+        UNKNOWN_CELL,
+    )
+    # The inflation costs 1-252 spread over 1-98 as costmap_2d_publisher's 1 + 97 (cost - 1) / 251.
+    assert cells[1:253].tolist() == [1 + (97 * (cost - 1)) // 251 for cost in range(1, 253)]
+    assert cells[252] == 98
 
 
 def test_the_explanation_gives_eq9s_terms_and_their_product_is_the_utility() -> None:

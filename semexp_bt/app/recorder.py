@@ -40,8 +40,6 @@ from blackboard.schema import summarize
 if TYPE_CHECKING:
     from semexp_bt.app.runner import MissionRun
 
-#: Each status's name (``Enum.name`` is a property, and slow at a few per node and tick).
-_STATUS_NAME = {status: status.name for status in py_trees.common.Status}
 #: Keys written at the gait or planner rate; the display does not treat them as news.
 HIGH_RATE_KEYS = frozenset({"/cmd_twist", "/cmd_stamp_s", "/plan"})
 #: The record file is fsynced every this many ticks (one second of robot time at 50 Hz) and at the end.
@@ -56,11 +54,11 @@ class RecordError(ValueError):
 
 
 class _TimingVisitor(py_trees.visitors.VisitorBase):
-    """Status, own wall time and feedback of every node visited in one tick."""
+    """Status name, own wall time (ms) and feedback of every node visited in one tick, by name."""
 
     def __init__(self) -> None:
         super().__init__(full=False)
-        self.statuses: dict[str, tuple[py_trees.common.Status, float, str]] = {}
+        self.statuses: dict[str, tuple[str, float, str]] = {}
         self._last = 0.0
 
     def initialise(self) -> None:
@@ -68,9 +66,12 @@ class _TimingVisitor(py_trees.visitors.VisitorBase):
         self._last = time.perf_counter()
 
     def run(self, behaviour: py_trees.behaviour.Behaviour) -> None:
+        # The status by name, read as ``_name_`` (the member's name, one of the enum's documented
+        # ``_sunder_`` names): ``Enum.name`` is a Python-level property, and a status kept as the key of
+        # the record's caches would hash through ``Enum.__hash__``, a Python call, at every node and tick.
         now = time.perf_counter()
         self.statuses[behaviour.name] = (
-            behaviour.status,
+            behaviour.status._name_,
             (now - self._last) * 1e3,
             behaviour.feedback_message,
         )
@@ -108,9 +109,9 @@ class TickRecorder:
         self._previous: dict[str, str] = {}
         self._nodes: list[py_trees.behaviour.Behaviour] = []
         self._index: dict[str, int] = {}
-        self._last: list[py_trees.common.Status] = []
+        self._last: list[str] = []
         self._visitor = _TimingVisitor()
-        self._node_json: dict[tuple[str, py_trees.common.Status, str], tuple[str, str]] = {}
+        self._node_json: dict[tuple[str, str, str], tuple[str, str]] = {}
 
     def listen(self, on_record: Callable[[int, str], None]) -> None:
         """Hand every tick's number and JSON line to ``on_record`` (before the mission starts)."""
@@ -119,7 +120,7 @@ class TickRecorder:
 
     def visited_statuses(self) -> dict[str, str]:
         """The status of every node ticked in the last tick, by name."""
-        return {name: _STATUS_NAME[status] for name, (status, _, _) in self._visitor.statuses.items()}
+        return {name: visit[0] for name, visit in self._visitor.statuses.items()}
 
     def start(self, run: MissionRun) -> None:
         """Attach the timing visitor to the tree and open the record file."""
@@ -131,7 +132,7 @@ class TickRecorder:
         self._nodes = list(run.tree.root.iterate())
         # A mission's node names are unique (the loader checks), so a name is a node.
         self._index = {node.name: i for i, node in enumerate(self._nodes)}
-        self._last = [node.status for node in self._nodes]
+        self._last = [node.status._name_ for node in self._nodes]
         if self.path is not None:
             Path(self.path).parent.mkdir(parents=True, exist_ok=True)
             self._fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | os.O_APPEND, 0o644)
@@ -181,14 +182,14 @@ class TickRecorder:
             if self.on_record is not None:
                 self.on_record(tick, line)
         if self.display:
-            names = {name: _STATUS_NAME[s] for name, (s, _, _) in statuses.items()}
+            names = {name: status for name, (status, _, _) in statuses.items()}
             changed = {name: s for name, s in names.items() if self._previous.get(name) != s}
             news = [w for w in writes if w["key"] not in HIGH_RATE_KEYS]
             if changed or news:
                 self._show(tick, stamp_s, news)
             self._previous.update(names)
 
-    def _node_entries(self, statuses: dict[str, tuple[py_trees.common.Status, float, str]]) -> str:
+    def _node_entries(self, statuses: dict[str, tuple[str, float, str]]) -> str:
         """The record's ``nodes`` object without its braces, as ``json.dumps`` writes it: each entry is
         ``"name": {"status": ..., "ms": ..., "feedback": ...}``, and only ``ms`` changes from tick to tick,
         so the JSON before and after it is cached."""
@@ -201,35 +202,34 @@ class TickRecorder:
             pieces = cache.get(key)
             if pieces is None:
                 pieces = cache[key] = (
-                    f'{json.dumps(name)}: {{"status": "{_STATUS_NAME[status]}", "ms": ',
+                    f'{json.dumps(name)}: {{"status": "{status}", "ms": ',
                     f', "feedback": {json.dumps(feedback)}}}',
                 )
             entries.append(f"{pieces[0]}{round(ms, 4)!r}{pieces[1]}")
         return ", ".join(entries)
 
-    def _stopped_nodes(
-        self, statuses: dict[str, tuple[py_trees.common.Status, float, str]]
-    ) -> dict[str, str]:
+    def _stopped_nodes(self, statuses: dict[str, tuple[str, float, str]]) -> dict[str, str]:
         """Nodes whose status after the tick differs from what their visit reported, by name.
 
         A parent may stop a child it did not tick (a selector with memory resuming a later child stops
         the earlier ones) or one it ticked earlier in the same tick (a parallel that succeeds stops its
-        running guards): both end INVALID without a visit saying so. The statuses after the tick, in one
-        list, are compared by identity with what the visits and the previous tick say (on most ticks
-        the two lists are equal and the comparison is one C loop).
+        running guards): both end INVALID without a visit saying so. The status names after the tick, in
+        one list, are compared with what the visits and the previous tick say: the names are the enum's own
+        string objects, so on most ticks the two lists are equal and the comparison is one C loop of
+        identity checks.
         """
         expected = self._last
         index = self._index
         for name, visit in statuses.items():
             expected[index[name]] = visit[0]
-        now = [node.status for node in self._nodes]
+        now = [node.status._name_ for node in self._nodes]
         self._last = now
         if now == expected:
             return {}
         return {
-            node.name: _STATUS_NAME[status]
+            node.name: status
             for node, status, wanted in zip(self._nodes, now, expected, strict=True)
-            if status is not wanted
+            if status != wanted
         }
 
     def _show(self, tick: int, stamp_s: float, news: list[dict[str, Any]]) -> None:

@@ -63,16 +63,26 @@ class MapLayer:
     path_xy: npt.NDArray[np.float64] | None = None
 
 
-def occupancy_values(cost: npt.NDArray[np.uint8]) -> npt.NDArray[np.int8]:
-    """Nav2 costs (0-255) as ``OccupancyGrid`` values: 255 -> -1, 254 -> 100, 253 -> 99, 0 -> 0 and the
-    inflation costs 1-252 spread over 1-98 (the translation of Nav2's ``costmap_2d_publisher``)."""
-    c = np.asarray(cost, dtype=np.int32)
+def _occupancy_of_each_cost() -> npt.NDArray[np.int8]:
+    """The ``OccupancyGrid`` value of each Nav2 cost 0-255, indexed by the cost (see :func:`occupancy_values`)."""
+    c = np.arange(256, dtype=np.int32)
     values = 1 + (97 * (c - 1)) // (INSCRIBED_COST - 2)
     values = np.where(c == 0, FREE_CELL, values)
     values = np.where(c == INSCRIBED_COST, INSCRIBED_CELL, values)
     values = np.where(c == LETHAL_COST, OCCUPIED_CELL, values)
     values = np.where(c == NO_INFORMATION_COST, UNKNOWN_CELL, values)
     return values.astype(np.int8)
+
+
+#: The translation table of :func:`occupancy_values`: a cost is one of 256 values, so the map is translated by
+#: one look-up per cell instead of five passes of arithmetic over it.
+_OCCUPANCY_OF_COST = _occupancy_of_each_cost()
+
+
+def occupancy_values(cost: npt.NDArray[np.uint8]) -> npt.NDArray[np.int8]:
+    """Nav2 costs (0-255) as ``OccupancyGrid`` values: 255 -> -1, 254 -> 100, 253 -> 99, 0 -> 0 and the
+    inflation costs 1-252 spread over 1-98 (the translation of Nav2's ``costmap_2d_publisher``)."""
+    return _OCCUPANCY_OF_COST[np.asarray(cost, dtype=np.uint8)]
 
 
 def _plan_of(storage: Mapping[str, Any]) -> GlobalPlan | None:
@@ -100,16 +110,20 @@ def map_layer(storage: Mapping[str, Any]) -> MapLayer | None:
     costmap = storage.get("/local_map")
     if not isinstance(costmap, Costmap):
         return None
-    rows, cols = np.nonzero(costmap.observed)
+    # The observed part's bounding box from the rows and columns that hold an observed cell: two
+    # reductions, not the index of every observed cell.
+    observed = costmap.observed
+    rows = np.flatnonzero(observed.any(axis=1))
     if rows.size == 0:
         return None
+    cols = np.flatnonzero(observed.any(axis=0))
     height, width = costmap.shape
-    lo_r = max(int(rows.min()) - MAP_MARGIN_CELLS, 0)
-    hi_r = min(int(rows.max()) + 1 + MAP_MARGIN_CELLS, height)
-    lo_c = max(int(cols.min()) - MAP_MARGIN_CELLS, 0)
-    hi_c = min(int(cols.max()) + 1 + MAP_MARGIN_CELLS, width)
+    lo_r = max(int(rows[0]) - MAP_MARGIN_CELLS, 0)
+    hi_r = min(int(rows[-1]) + 1 + MAP_MARGIN_CELLS, height)
+    lo_c = max(int(cols[0]) - MAP_MARGIN_CELLS, 0)
+    hi_c = min(int(cols[-1]) + 1 + MAP_MARGIN_CELLS, width)
     window = (slice(lo_r, hi_r), slice(lo_c, hi_c))
-    cells = occupancy_values(costmap.cost(costmap.distance_m[window], costmap.observed[window]))
+    cells = occupancy_values(costmap.cost(costmap.distance_m[window], observed[window]))
     cells[costmap.lethal()[window]] = OCCUPIED_CELL
     corner = costmap.centre_of(np.array(lo_r), np.array(lo_c)) - 0.5 * costmap.resolution_m
     plan = _plan_of(storage)

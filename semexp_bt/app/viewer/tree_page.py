@@ -54,6 +54,10 @@ RERUN_ASSETS = {
 }
 #: Where a replay's saved world recording is served.
 WORLD_ROUTE = "/world.rrd"
+#: How often the page's server looks for a request to stop (wall s): ``close`` waits up to this long.
+#: ``socketserver``'s default, half a second, held every mission's end by 0.25 s on average (measured
+#: 0.1 to 0.5 s); a look 20 times a second costs the mission nothing measurable.
+SHUTDOWN_POLL_S = 0.05
 #: The page may load and connect to this machine only: the Rerun viewer asks the internet for its latest
 #: release on start, and the view promises that nothing is fetched from outside.
 CONTENT_SECURITY_POLICY = (
@@ -252,7 +256,10 @@ class ViewServer:
         self._server.feed = feed
         self._server.world_file = world_file
         self._thread = threading.Thread(
-            target=self._server.serve_forever, name="semexp-view-http", daemon=True
+            target=self._server.serve_forever,
+            kwargs={"poll_interval": SHUTDOWN_POLL_S},
+            name="semexp-view-http",
+            daemon=True,
         )
         self._thread.start()
 
