@@ -1,6 +1,7 @@
-"""Trace one simulated episode: which robot part breaches the clearance, and how the memory merges evidence.
+"""Trace one simulated episode: which robot part breaches the clearance, how the memory merges evidence, and
+what each view near the goal gave the perception.
 
-Two probes, either or both, printed as the episode runs (one line per event):
+Three probes, any of them, printed as the episode runs (one line per event):
 
 - ``--breaches``: each time an object enters the robot's clearance or collision set (the events OASR
   counts), the robot geom nearest to it, the distance, the commanded twist and the base's measured twist.
@@ -9,9 +10,13 @@ Two probes, either or both, printed as the episode runs (one line per event):
   contains ``TEXT``: the observation's label and C_f, the node's label, confidence and potential before
   and after (Eq. 6). Why: whether a label switch raised the potential decides whether the node stays a
   candidate.
+- ``--views M``: each perceived frame in which the goal object is visible less than ``M`` metres away: its
+  depth, pixels, truncation and bearing, the emulated detector's view-quality factors, and what the
+  detector and the VLM reported of it. Why: a robot that stands at the goal and is refused confirmation
+  lost its votes here.
 
 The probes wrap two private methods (``MujocoRobot._record``, ``TopologicalMemory._merge_observation``)
-for this process only; the episode itself is the one ``semexp-bt run`` runs.
+and the emulator's ``emulate`` for this process only; the episode itself is the one ``semexp-bt run`` runs.
 
 Usage:
     MUJOCO_GL=egl .venv/bin/python scripts/trace_episode.py --scene garden_sim --seed 0 --fidelity dynamic \\
@@ -90,6 +95,44 @@ def trace_merges(text: str) -> None:
     graph.TopologicalMemory._merge_observation = merge  # type: ignore[method-assign,assignment]
 
 
+def trace_views(within_m: float) -> None:
+    """Wrap the perception emulator's ``emulate`` to print every view of the goal closer than ``within_m``."""
+    from sims import perception_emulator as emulator
+
+    original = emulator.emulate
+
+    def emulate(observation: Any, scene: Any, **options: Any) -> Any:
+        result = original(observation, scene, **options)
+        goal = scene.goal.object_id
+        seen = emulator.analyse_view(observation, scene).get(goal)
+        if seen is None or seen.depth_m >= within_m:
+            return result
+        noise = options.get("noise") or emulator._default_noise()
+        motion = options.get("motion") or emulator.Twist.zero()
+        q = emulator.quality_factors(
+            seen, noise.detector.visibility, motion=motion, fx_px=observation.intrinsics.fx_px
+        )
+        boxes = [
+            f"{report.kind} {result.detections[report.index].confidence:.2f}"
+            for report in result.debug
+            if report.source == "detector" and report.object_id == goal
+        ]
+        named = [
+            report.kind for report in result.debug if report.source == "vlm" and report.object_id == goal
+        ]
+        print(
+            f"{observation.stamp_s:7.2f} s  goal at {seen.depth_m:.2f} m, {seen.pixel_count} px, "
+            f"truncation {seen.truncation:.2f}, off axis {seen.off_axis:.2f}, visible {seen.visible_fraction:.2f}"
+            f" | q {q.quality:.2f} (distance {q.distance:.2f} area {q.area:.2f} occlusion {q.occlusion:.2f} "
+            f"truncation {q.truncation:.2f} off axis {q.off_axis:.2f} blur {q.blur:.2f})"
+            f" | detector {boxes or 'nothing'} | VLM {named or 'nothing'}",
+            flush=True,
+        )
+        return result
+
+    emulator.emulate = emulate
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--scene", required=True)
@@ -101,9 +144,12 @@ def main() -> int:
     parser.add_argument(
         "--merges", default=None, metavar="TEXT", help="trace merges into nodes labelled TEXT"
     )
+    parser.add_argument(
+        "--views", type=float, default=None, metavar="M", help="trace the views of the goal closer than M m"
+    )
     args = parser.parse_args()
-    if not args.breaches and args.merges is None:
-        parser.error("choose --breaches, --merges TEXT or both")
+    if not args.breaches and args.merges is None and args.views is None:
+        parser.error("choose --breaches, --merges TEXT, --views M, or several")
     import torch
 
     torch.set_num_threads(1)
@@ -115,6 +161,8 @@ def main() -> int:
         trace_breaches(counts)
     if args.merges is not None:
         trace_merges(args.merges)
+    if args.views is not None:
+        trace_views(args.views)
     record = run_episode(
         EpisodeOptions(
             mission_path=default_mission_path(),
