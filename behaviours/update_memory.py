@@ -18,7 +18,10 @@ objects the VLM named (landmarks, e.g. "shelving rack"), weighted by the calibra
 and up to ``max_frontiers`` open directions of the depth frame (``offer_frontiers``). Directions and
 frontiers are places to go, not objects to touch: their node stands ``standoff_m`` in front of the surface
 the pixel sees, at most ``direction_range_m`` ahead; an object's or a landmark's node sits on it. Only
-evidence for the instructed object may relabel a nearby node of another label.
+evidence for the instructed object may relabel a nearby node of another label, and evidence that names it
+takes a place's node over whatever the confidences (``TopologicalMemory.update``'s ``takes_over``, with
+``services.place_labels``): a direction the VLM named with C_f 1.0 otherwise swallowed the goal's
+detection (garden_sim seed 0, docs/memory.md).
 
 Then, with or without an observation: the surroundings of the robot count as observed (Eq. 7 decay);
 with a ``local_map``, place nodes whose neighbourhood the map has mostly seen decay too and the map's
@@ -266,11 +269,13 @@ class UpdateMemory(SemExpBehaviour):
                     if not self._instructed(label) and self._would_relabel(memory, point, label):
                         outcomes.append(f"{label}: kept the nearby node's label")
                         continue
+                    names_the_object = not is_place and self.names_instructed_object(label)
                     result = memory.update(
                         position_m=tuple(float(v) for v in point),
                         label=label,
                         confidence=float(np.clip(confidence, 0.0, 1.0)),
                         stamp_s=self.now_s(),
+                        takes_over=self.services.place_labels if names_the_object else (),
                     )
                     outcomes.append(f"{label}: {result.action}")
                     if result.action == "merged" and score is not None and not is_place:

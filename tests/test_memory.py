@@ -163,6 +163,59 @@ def test_label_switches_only_when_the_new_confidence_beats_the_node() -> None:
     assert state.potential == pytest.approx(0.9)  # a new hypothesis is worth a visit
 
 
+def test_an_object_takes_over_a_place_whatever_the_confidences() -> None:
+    memory = fresh()
+    place = insert(memory, (0.0, 0.0, 0.0), label="unexplored area", confidence=1.0)
+    memory.mark_visited(node_id=place)  # potential 1.0 -> 0.5
+    other = insert(memory, (3.0, 0.0, 0.0), label="hedge", confidence=0.9)
+
+    # Without the place's label in takes_over, weaker evidence leaves the node the place's (Eq. 6).
+    kept = memory.update(position_m=(0.4, 0.0, 0.0), label="green bin", confidence=0.5, stamp_s=2.0)
+    assert not kept.label_switched and memory.node(place).label == "unexplored area"
+
+    taken = memory.update(
+        position_m=(0.4, 0.0, 0.0),
+        label="green bin",
+        confidence=0.45,
+        stamp_s=3.0,
+        takes_over={"unexplored area"},
+    )
+    print(taken.reason)
+    assert (taken.action, taken.node_id, taken.label_switched) == ("merged", place, True)
+    state = memory.node(place)
+    assert state.label == "green bin"
+    assert state.confidence == pytest.approx(0.45)  # the object's hypothesis starts with its own evidence
+    assert state.potential == pytest.approx(0.5)  # max(P, C_f): never lowered
+    assert state.position_m == pytest.approx((0.4, 0.0, 0.0))  # onto the object
+    # Only a place's label is taken over; an object's node follows Eq. 6 as before.
+    hedge = memory.update(
+        position_m=(3.1, 0.0, 0.0),
+        label="green bin",
+        confidence=0.5,
+        stamp_s=4.0,
+        takes_over={"unexplored area"},
+    )
+    assert hedge.node_id == other and memory.node(other).label == "hedge"
+    memory.check_invariants()
+
+
+def test_a_place_taken_over_holds_still_rather_than_crowd_another_hypothesis() -> None:
+    memory = fresh()
+    place = insert(memory, (0.0, 0.0, 0.0), label="unexplored area", confidence=1.0)
+    insert(memory, (1.5, 0.0, 0.0), label="hedge", confidence=0.9)
+    # The object lies 0.6 m from the place and 0.9 m from the hedge: moving onto it would crowd the hedge.
+    taken = memory.update(
+        position_m=(0.6, 0.0, 0.0),
+        label="green bin",
+        confidence=0.6,
+        stamp_s=2.0,
+        takes_over={"unexplored area"},
+    )
+    assert taken.node_id == place and memory.node(place).label == "green bin"
+    assert memory.node(place).position_m == pytest.approx((0.0, 0.0, 0.0))
+    memory.check_invariants()
+
+
 def test_gate_insert_merge_reject() -> None:
     memory = fresh(master_at=(0.0, 0.0, 0.0))
     # Exactly delta_d away: not strictly farther, so it merges (into the master).
@@ -494,6 +547,8 @@ positions = st.tuples(
 operations = st.lists(
     st.one_of(
         st.tuples(st.just("update"), positions, st.sampled_from(["a", "b", "c"]), st.floats(0.0, 1.0)),
+        # "b" and "c" take over nodes labelled "a" (an object over a place).
+        st.tuples(st.just("take"), positions, st.sampled_from(["b", "c"]), st.floats(0.0, 1.0)),
         st.tuples(st.just("observe"), positions),
         st.tuples(st.just("visit"), st.integers(0, 200)),
         st.tuples(st.just("scale"), st.integers(0, 200), st.floats(0.0, 1.0)),
@@ -513,6 +568,8 @@ def test_invariants_hold_after_any_sequence(ops, every, cap) -> None:
     for op in ops:
         if op[0] == "update":
             memory.update(position_m=op[1], label=op[2], confidence=op[3], stamp_s=1.0)
+        elif op[0] == "take":
+            memory.update(position_m=op[1], label=op[2], confidence=op[3], stamp_s=1.0, takes_over={"a"})
         elif op[0] == "observe":
             memory.observe_surroundings(robot_position_m=op[1])
         elif op[0] in ("visit", "scale") and op[1] in memory:

@@ -34,6 +34,27 @@ def test_the_target_seen_becomes_a_node_on_its_surface(make_rig: Callable[..., R
     assert "memory_update" in rig.services.timings.samples
 
 
+def test_the_target_seen_on_a_place_takes_its_node_over(make_rig: Callable[..., Rig]) -> None:
+    rig = make_rig(robot=robot_among(EXTINGUISHER))
+    memory = rig.get("memory")
+    memory.add_master(position_m=(-3.0, 0.0, 0.0), stamp_s=0.0)
+    # An unexplored direction the VLM named, at full confidence, 0.4 m short of the extinguisher's surface.
+    rig.services.place_labels.add("unexplored area ahead")
+    place = memory.update(
+        position_m=(1.4, 0.0, 0.3), label="unexplored area ahead", confidence=1.0, stamp_s=0.0
+    )
+    rig.stage_view([EXTINGUISHER])
+    update = rig.build(UpdateMemory, offer_frontiers=False, map_frontier_confidence=0.0)
+    assert rig.tick(update) == [Status.SUCCESS]
+    rig.show(update)
+    node = memory.node(place.node_id)
+    # The detection is weaker than the place, yet the node is now the extinguisher's, on its surface.
+    assert node.label == "fire extinguisher"
+    assert node.confidence == pytest.approx(rig.get("target").fused_confidence, abs=1e-6)
+    assert node.position_m[0] == pytest.approx(1.8, abs=0.1)
+    assert not [n for n in memory.nodes() if n.label == "unexplored area ahead"]
+
+
 def test_unexplored_directions_become_place_nodes_short_of_the_surface(make_rig: Callable[..., Rig]) -> None:
     rig = make_rig()
     rig.get("memory").add_master(position_m=(0.0, 0.0, 0.0), stamp_s=0.0)

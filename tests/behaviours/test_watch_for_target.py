@@ -126,3 +126,20 @@ def test_the_papers_stop_and_perceive_takes_no_views(make_rig: Callable[..., Rig
     assert compact(statuses) == ["RUNNING"]
     assert rig.perception.requests == []
     assert _nodes_labelled(rig, "fire extinguisher") == []
+
+
+def test_the_object_seen_on_a_place_takes_its_node_over(make_rig: Callable[..., Rig]) -> None:
+    rig = walking_rig(make_rig, EXTINGUISHER)
+    memory = rig.get("memory")
+    memory.add_master(position_m=(-3.0, 0.0, 0.0), stamp_s=0.0)
+    # A frontier-like place the VLM named at full confidence, where the extinguisher turns out to stand.
+    rig.services.place_labels.add("unexplored area")
+    place = memory.update(position_m=(2.6, 0.0, 0.3), label="unexplored area", confidence=1.0, stamp_s=0.0)
+    rig.set("subgoal", subgoal_at(0.0, 5.0))
+    watch = rig.build(WatchForTarget, period_s=2.0)
+    assert rig.tick_until_done(watch, limit_s=10.0)[-1] == Status.FAILURE
+    rig.show(watch)
+    assert memory.node(place.node_id).label == "fire extinguisher"
+    assert _nodes_labelled(rig, "unexplored area") == []
+    [event] = [e for e in rig.services.events if e["kind"] == "target_sighted"]
+    assert event["node_id"] == place.node_id

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import heapq
 import math
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -233,7 +233,15 @@ class TopologicalMemory:
         self._connect_new(node_id)
         return node_id
 
-    def update(self, *, position_m: Any, label: str, confidence: float, stamp_s: float) -> MemoryUpdate:
+    def update(
+        self,
+        *,
+        position_m: Any,
+        label: str,
+        confidence: float,
+        stamp_s: float,
+        takes_over: Collection[str] = (),
+    ) -> MemoryUpdate:
         """Fold one arbitrated target (P_vc of Eq. 5, L_t, C_f) into the memory (Eq. 6).
 
         * nearest node within delta_d (inclusive): merge. Confidence follows the EMA
@@ -242,6 +250,10 @@ class TopologicalMemory:
           called) and the label switches to the observation's. The position moves towards the
           observation by the fraction ``rho * C_f`` (the master never moves), and if that brings it
           within delta_d of another node the two fuse.
+        * a merge into a node labelled with one of ``takes_over`` (places: an unexplored direction, a
+          frontier) hands the node to the observation whatever the confidences: its label, C = C_f,
+          P = max(P, C_f), and the node moves onto the observation (unless that would crowd a node of
+          another label). A place says where to look; an object seen there is what is there.
         * no node within delta_d and C_f > cf_gate: insert a node with P_explore = C_f, linked to every
           node within delta_r or, if none, to the k nearest.
         * no node within delta_d and C_f <= cf_gate: reject (reported, memory unchanged).
@@ -255,6 +267,7 @@ class TopologicalMemory:
             label: its semantic label L_t.
             confidence: its fused confidence C_f, in [0, 1].
             stamp_s: observation time.
+            takes_over: labels of nodes this observation takes over on a merge (see above).
 
         Raises:
             InvalidInputError: naming the field, on a non-finite position, stamp or confidence, a
@@ -274,7 +287,7 @@ class TopologicalMemory:
         close = self._index.within(p, cfg.delta_d)
         if close:
             d_nn, target = close[0]
-            return self._merge_observation(target, p, name, c_f, stamp, d_nn, maintenance)
+            return self._merge_observation(target, p, name, c_f, stamp, d_nn, maintenance, takes_over)
         # Most updates merge, so the wider edge query runs only when the gate did not merge.
         close = self._index.within(p, cfg.delta_r) if cfg.delta_r > cfg.delta_d else []
 
@@ -665,11 +678,13 @@ class TopologicalMemory:
         stamp: float,
         d_nn: float,
         maintenance: MaintenanceReport | None,
+        takes_over: Collection[str] = (),
     ) -> MemoryUpdate:
         cfg = self.config
         a = self._attrs[n]
         old_c = a["confidence"]
-        more_confident = c_f > old_c
+        taken_over = label != a["label"] and a["label"] in takes_over and not a["is_master"]
+        more_confident = c_f > old_c or taken_over
         switched = more_confident and label != a["label"]
         if switched:
             a["label"] = label
@@ -678,13 +693,14 @@ class TopologicalMemory:
             # Compared by evidence, not by name: whether the VLM's word for the object equals the
             # instruction's must not decide whether the node is worth a visit (docs/memory.md).
             a["potential"] = max(old_potential, c_f)
-        a["confidence"] = _clamp_unit((1.0 - cfg.rho) * old_c + cfg.rho * c_f)
+        # A node taken over starts as the object's hypothesis: the place's confidence was about another.
+        a["confidence"] = c_f if taken_over else _clamp_unit((1.0 - cfg.rho) * old_c + cfg.rho * c_f)
         a["observations"] += 1
         a["updated_s"] = stamp
         fused: list[int] = []
         survivor = n
         held_still = False
-        step = cfg.rho * c_f
+        step = 1.0 if taken_over else cfg.rho * c_f
         if not a["is_master"] and step > 0.0:
             old_p = self._pos[n]
             new_p = (
@@ -708,7 +724,9 @@ class TopologicalMemory:
             f"nearest node {n} at {d_nn:.3f} m <= delta_d={cfg.delta_d}: C {old_c:.3f} -> "
             f"{a['confidence']:.3f} (rho={cfg.rho}, C_f={c_f:.3f})"
         )
-        if switched:
+        if taken_over:
+            reason += f"; a place taken over by {label!r}"
+        elif switched:
             reason += f"; label -> {label!r}"
         if a["potential"] > old_potential:
             reason += f"; potential {old_potential:.3f} -> {a['potential']:.3f}"
