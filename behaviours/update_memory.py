@@ -19,7 +19,7 @@ and up to ``max_frontiers`` open directions of the depth frame (``offer_frontier
 frontiers are places to go, not objects to touch: their node stands ``standoff_m`` in front of the surface
 the pixel sees, at most ``direction_range_m`` ahead; an object's or a landmark's node sits on it. Only
 evidence for the instructed object may relabel a nearby node of another label, and evidence that names it
-takes a place's node over whatever the confidences (``TopologicalMemory.update``'s ``takes_over``, with
+with a detector box behind it takes a place's node over whatever the confidences (``TopologicalMemory.update``'s ``takes_over``, with
 ``services.place_labels``): a direction the VLM named with C_f 1.0 otherwise swallowed the goal's
 detection (garden_sim seed 0, docs/memory.md).
 
@@ -71,6 +71,7 @@ class Offer(NamedTuple):
     confidence: float
     is_place: bool
     score: float | None = None  # raw Eq. 2 score of the arbitration candidate behind it
+    boxed: bool = False  # a detector box stands behind it (source "fused" or "object")
 
 
 #: Label of a geometric frontier node (the relevance scorer sees it like a VLM's direction label).
@@ -189,6 +190,7 @@ class UpdateMemory(SemExpBehaviour):
                     target.fused_confidence,
                     target.kind == "direction",
                     None if winner is None else winner.score,
+                    winner is not None and winner.source != "scene",
                 )
             )
             if self.offer_all_candidates:
@@ -209,6 +211,7 @@ class UpdateMemory(SemExpBehaviour):
                             confidence,
                             cand.kind == "direction",
                             cand.score,
+                            cand.source != "scene",
                         )
                     )
         if self.landmark_weight > 0.0 and scene is not None:
@@ -250,7 +253,7 @@ class UpdateMemory(SemExpBehaviour):
             if observation is not None:
                 patch = self.services.config.arbitration.depth_patch_px
                 offers = self._offers()
-                for pixel, box, label, confidence, is_place, score in offers:
+                for pixel, box, label, confidence, is_place, score, boxed in offers:
                     depth = object_surface_depth(observation.depth_m, pixel, None if is_place else box, patch)
                     if is_place:
                         seen = self.direction_range_m if depth is None else depth
@@ -269,7 +272,9 @@ class UpdateMemory(SemExpBehaviour):
                     if not self._instructed(label) and self._would_relabel(memory, point, label):
                         outcomes.append(f"{label}: kept the nearby node's label")
                         continue
-                    names_the_object = not is_place and self.names_instructed_object(label)
+                    # Only the instructed object, seen by the detector too, takes a place over: the VLM's
+                    # confusions repeat from one viewpoint (ConfirmTarget asks a box for the same reason).
+                    names_the_object = boxed and not is_place and self.names_instructed_object(label)
                     result = memory.update(
                         position_m=tuple(float(v) for v in point),
                         label=label,

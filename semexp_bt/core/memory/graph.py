@@ -251,9 +251,9 @@ class TopologicalMemory:
           observation by the fraction ``rho * C_f`` (the master never moves), and if that brings it
           within delta_d of another node the two fuse.
         * a merge into a node labelled with one of ``takes_over`` (places: an unexplored direction, a
-          frontier) hands the node to the observation whatever the confidences: its label, C = C_f,
-          P = max(P, C_f), and the node moves onto the observation (unless that would crowd a node of
-          another label). A place says where to look; an object seen there is what is there.
+          frontier) hands the node to the observation whatever the confidences: its label, C = C_f and
+          P = max(P, C_f); the position steps as in any merge (a place stands where the robot can). A place
+          says where to look; an object seen there is what is there.
         * no node within delta_d and C_f > cf_gate: insert a node with P_explore = C_f, linked to every
           node within delta_r or, if none, to the k nearest.
         * no node within delta_d and C_f <= cf_gate: reject (reported, memory unchanged).
@@ -700,7 +700,7 @@ class TopologicalMemory:
         fused: list[int] = []
         survivor = n
         held_still = False
-        step = 1.0 if taken_over else cfg.rho * c_f
+        step = cfg.rho * c_f
         if not a["is_master"] and step > 0.0:
             old_p = self._pos[n]
             new_p = (
