@@ -130,6 +130,13 @@ class EpisodeOptions:
 def run_episode(options: EpisodeOptions) -> dict[str, Any]:
     """Run one simulated episode and return its record (JSON-serialisable)."""
     wall_start = time.perf_counter()
+    recorder = TickRecorder(path=options.record_path, display=options.display, stream=options.display_stream)
+    view_observers: list[TickObserver] = []
+    if options.view is not None:
+        from semexp_bt.app.viewer.observer import ViewObserver
+
+        # First: the view imports Rerun on a thread of its own, which then overlaps the scene's set-up.
+        view_observers.append(ViewObserver(options.view, recorder=recorder))
     mission = parse_mission(options.mission_path)
     settings = mission.settings
     faults = (
@@ -167,12 +174,7 @@ def run_episode(options: EpisodeOptions) -> dict[str, Any]:
         start_pose=episode.start,
         models=stack,
     )
-    recorder = TickRecorder(path=options.record_path, display=options.display, stream=options.display_stream)
-    observers: list[TickObserver] = [recorder, *options.observers]
-    if options.view is not None:
-        from semexp_bt.app.viewer.observer import ViewObserver
-
-        observers.append(ViewObserver(options.view, recorder=recorder))
+    observers: list[TickObserver] = [recorder, *options.observers, *view_observers]
     factor = options.models.simulation.real_time_factor if options.models is not None else 0.0
     if options.perception == "models" and factor > 0.0:
         from semexp_bt.app.pacing import WallClockPacer
