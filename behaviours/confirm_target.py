@@ -313,7 +313,7 @@ class ConfirmTarget(SemExpBehaviour):
                 vlm_name = scene.proposals[candidate.proposal_index].label
                 self._names.append((float(point[0]), float(point[1]), self._aligned(vlm_name)))
             if aligned:
-                boxed = boxed or candidate.detection_index is not None
+                boxed = boxed or candidate.has_box
                 if best is None or candidate.score > best[0]:
                     best = (candidate.score, candidate.label, point)
         if scene is not None:

@@ -19,9 +19,9 @@ and up to ``max_frontiers`` open directions of the depth frame (``offer_frontier
 frontiers are places to go, not objects to touch: their node stands ``standoff_m`` in front of the surface
 the pixel sees, at most ``direction_range_m`` ahead; an object's or a landmark's node sits on it. Only
 evidence for the instructed object may relabel a nearby node of another label, and evidence that names it
-with a detector box behind it takes a place's node over whatever the confidences (``TopologicalMemory.update``'s ``takes_over``, with
-``services.place_labels``): a direction the VLM named with C_f 1.0 otherwise swallowed the goal's
-detection (garden_sim seed 0, docs/memory.md).
+with a detector box behind it takes a place's node over whatever the confidences
+(``TopologicalMemory.update``'s ``takes_over``, with ``services.place_labels``): a direction the VLM named
+with C_f 1.0 otherwise swallowed the goal's detection (garden_sim seed 0, docs/memory.md).
 
 Then, with or without an observation: the surroundings of the robot count as observed (Eq. 7 decay);
 with a ``local_map``, place nodes whose neighbourhood the map has mostly seen decay too and the map's
@@ -71,7 +71,7 @@ class Offer(NamedTuple):
     confidence: float
     is_place: bool
     score: float | None = None  # raw Eq. 2 score of the arbitration candidate behind it
-    boxed: bool = False  # a detector box stands behind it (source "fused" or "object")
+    boxed: bool = False  # a detector box stands behind it (ScoredCandidate.has_box)
 
 
 #: Label of a geometric frontier node (the relevance scorer sees it like a VLM's direction label).
@@ -163,7 +163,8 @@ class UpdateMemory(SemExpBehaviour):
         self._revivals: dict[int, int] = {}
 
     def _offers(self) -> list[Offer]:
-        """(pixel, box, label, confidence, is_place, score) for t*, the other candidates and the landmarks.
+        """(pixel, box, label, confidence, is_place, score, boxed) for t*, the other candidates and the
+        landmarks.
 
         ``box`` is the detection box or the VLM's region of an object offer (None for places), from which
         :func:`~semexp_bt.core.geometry.object_surface_depth` takes the object's range.
@@ -190,7 +191,7 @@ class UpdateMemory(SemExpBehaviour):
                     target.fused_confidence,
                     target.kind == "direction",
                     None if winner is None else winner.score,
-                    winner is not None and winner.source != "scene",
+                    winner is not None and winner.has_box,
                 )
             )
             if self.offer_all_candidates:
@@ -211,7 +212,7 @@ class UpdateMemory(SemExpBehaviour):
                             confidence,
                             cand.kind == "direction",
                             cand.score,
-                            cand.source != "scene",
+                            cand.has_box,
                         )
                     )
         if self.landmark_weight > 0.0 and scene is not None:
@@ -280,7 +281,7 @@ class UpdateMemory(SemExpBehaviour):
                         label=label,
                         confidence=float(np.clip(confidence, 0.0, 1.0)),
                         stamp_s=self.now_s(),
-                        takes_over=self.services.place_labels if names_the_object else (),
+                        takes_over=self.services.place_labels if names_the_object else frozenset(),
                     )
                     outcomes.append(f"{label}: {result.action}")
                     if result.action == "merged" and score is not None and not is_place:

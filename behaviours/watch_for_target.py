@@ -47,7 +47,7 @@ from behaviours.base import SemExpBehaviour
 from behaviours.nav_failure_is import SUPERSEDED
 from behaviours.spec import param
 from semexp_bt.core.clock import has_elapsed
-from semexp_bt.core.evidence import ArbitrationResult, arbitrate, candidate_box
+from semexp_bt.core.evidence import ArbitrationResult, ScoredCandidate, arbitrate, candidate_box
 from semexp_bt.core.geometry import locate_in_view
 from semexp_bt.core.relevance import NAMES_OBJECT_RELEVANCE
 from semexp_bt.core.types import Observation
@@ -173,8 +173,9 @@ class WatchForTarget(SemExpBehaviour):
                 label=candidate.label,
                 confidence=float(np.clip(self._confidence(arbitration, index), 0.0, 1.0)),
                 stamp_s=self.now_s(),
-                # As in UpdateMemory: only evidence with a detector box behind it takes a place over.
-                takes_over=self.services.place_labels if candidate.source != "scene" else (),
+                # As in UpdateMemory: only boxed evidence naming the instructed object takes a place over
+                # (align_threshold may admit related classes too).
+                takes_over=self.services.place_labels if self._takes_places(candidate) else frozenset(),
             )
             offered += 1
             if sighted is not None or update.node_id is None or update.node_id in self._handed_back:
@@ -191,6 +192,10 @@ class WatchForTarget(SemExpBehaviour):
             sighted = (update.node_id, candidate.label, math.hypot(point[0] - pose.x_m, point[1] - pose.y_m))
         self.feedback_message = f"view on the move: {offered} instructed-object offers"
         return sighted
+
+    def _takes_places(self, candidate: ScoredCandidate) -> bool:
+        """Whether ``candidate`` may take a place's node over (see UpdateMemory)."""
+        return candidate.has_box and self.names_instructed_object(candidate.label)
 
     @staticmethod
     def _confidence(arbitration: ArbitrationResult, index: int) -> float:

@@ -118,12 +118,13 @@ PAIR_LOG = 4096
 WATCHDOG_PERIOD_S = 0.05
 #: Zero twists sent on close, so that the driver has one even if a datagram is lost.
 CLOSING_ZERO_COMMANDS = 3
-#: How long (s) :meth:`Ros2Robot.close` waits for the executor thread to stop: a clean stop takes well
-#: under 0.1 s. After a halt the peer may be gone, and Fast DDS can then hold the executor thread for
-#: seconds (a CI run: the 2 s join ran out whole), while the executive has 2 s from a dead bridge to its
-#: exit; the zero twists are out before this wait, so a shorter one loses nothing.
-CLOSE_JOIN_S = 2.0
-HALTED_CLOSE_JOIN_S = 0.2
+#: How long (s) :meth:`Ros2Robot.close` waits, in all, for the executor to shut down and its thread to
+#: stop: a clean stop takes well under 0.1 s.
+CLOSE_WAIT_S = 2.0
+#: The same after a halt. The peer may be gone, and Fast DDS can then hold the executor thread for seconds
+#: (a CI run: a 2 s join ran out whole), while a dead bridge must see the executive exit within 2 s
+#: (tests/test_ros2_mission.py); the zero twists are out before this wait, so a shorter one loses nothing.
+HALTED_CLOSE_WAIT_S = 0.2
 #: Least wall time (s) the lockstep executive waits for the bridge to answer a step or a render. The
 #: profile's sensor deadlines are the real robot's rates; a simulated step on a loaded 2-core machine
 #: answered later than odometry's 0.5 s once (CI), which is a slow simulation, not a lost robot. 1 s keeps
@@ -1008,21 +1009,23 @@ class Ros2Robot(Robot):
     def close(self) -> None:
         """Send zero twists, then stop the executor and the ROS context (idempotent).
 
-        After a halt the waits are short (:data:`HALTED_CLOSE_JOIN_S`): a node the executor thread still
-        holds is left to the process's end rather than destroyed.
+        The executor's shutdown and its thread's end share one deadline, :data:`CLOSE_WAIT_S`, or after a
+        halt :data:`HALTED_CLOSE_WAIT_S`: a node the executor thread still holds is left to the process's
+        end rather than destroyed.
         """
         if self._closed:
             return
         with self._lock:
             self._command = Twist.zero()
-            join_s = CLOSE_JOIN_S if self._halt is None else HALTED_CLOSE_JOIN_S
+            wait_s = CLOSE_WAIT_S if self._halt is None else HALTED_CLOSE_WAIT_S
         for _ in range(CLOSING_ZERO_COMMANDS):
             self._publish_twist(Twist.zero())
         self._closed = True
         if self._pump is not None:
             self._pump.close()
-        self._executor.shutdown(timeout_sec=min(1.0, join_s))
-        self._spinner.join(timeout=join_s)
+        deadline = time.monotonic() + wait_s
+        self._executor.shutdown(timeout_sec=wait_s / 2.0)
+        self._spinner.join(timeout=max(0.0, deadline - time.monotonic()))
         if not self._spinner.is_alive():  # a node still in the executor's hands would block destroy_node
             self.node.destroy_node()
         self._context.try_shutdown()

@@ -109,8 +109,9 @@ def trace_views(within_m: float) -> None:
             return result
         noise = options.get("noise") or emulator._default_noise()
         motion = options.get("motion") or emulator.Twist.zero()
+        profile = getattr(noise, options.get("detector_profile", "detector"))
         q = emulator.quality_factors(
-            seen, noise.detector.visibility, motion=motion, fx_px=observation.intrinsics.fx_px
+            seen, profile.visibility, motion=motion, fx_px=observation.intrinsics.fx_px
         )
         boxes = [
             f"{report.kind} {result.detections[report.index].confidence:.2f}"

@@ -231,6 +231,9 @@ def test_embedding_relevance_is_one_query_per_concept(embedding) -> None:
     red_large = embedding.scores(instruction="red large bins", labels=labels + ["red trash can"])
     np.testing.assert_array_equal(big_red, red_large)
     assert big_red[-1] < 1.0  # "large red trash can" is the name; a label without the size is not it
+    # The instruction's own words, and any wording of the same request, name it.
+    for label in ("big red bin", "red large bin", "large red wheelie bins"):
+        assert embedding.score(instruction="find the big red bin", label=label) == 1.0
     assert embedding.score(instruction="find the piano stool", label="piano stool") == pytest.approx(1.0)
 
 

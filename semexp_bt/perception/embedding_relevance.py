@@ -43,9 +43,6 @@ from semexp_bt.core.relevance import FloatArray
 #: object phrases, measured on the product vocabulary; see docs/decision.md).
 COSINE_FLOOR = 0.3
 
-#: Cosine at or above which two phrases' embeddings are the same phrase's (float rounding only).
-SAME_PHRASE_COSINE = 1.0 - 1e-6
-
 #: Environment switches that keep Hugging Face libraries from touching the network.
 OFFLINE_ENV: dict[str, str] = {"HF_HUB_OFFLINE": "1", "TRANSFORMERS_OFFLINE": "1"}
 
@@ -57,9 +54,11 @@ def cosine_to_relevance(cosine: FloatArray | float, *, cosine_floor: float = COS
 
 
 class EmbeddingRelevance:
-    """Relevance from all-MiniLM-L6-v2 cosine similarity between the object phrase and the label.
+    """Relevance from all-MiniLM-L6-v2 cosine similarity between the request and the label.
 
-    The instruction is reduced to its object phrase (:func:`instruction_target`) before embedding. The
+    The instruction is reduced to its object phrase (:func:`instruction_target`), and a phrase that names a
+    lexicon concept to the mean of its names' embeddings (the module docstring); a label that names the
+    same request (:func:`~semexp_bt.core.language.concept_names` equal) scores 1. The
     model loads lazily on the first score; embeddings are cached per phrase (normalised to unit
     length), so a label is embedded once per process.
 
@@ -135,10 +134,10 @@ class EmbeddingRelevance:
         vectors = self.embed([*names, *labels])
         query = vectors[: len(names)].mean(axis=0)
         query /= np.linalg.norm(query)
-        label_vectors = vectors[len(names) :]
-        cosines = label_vectors @ query
-        # A label that is one of the concept's names is the concept (its cosine with the mean is lower).
-        is_a_name = (label_vectors @ vectors[: len(names)].T).max(axis=1) >= SAME_PHRASE_COSINE
+        cosines = vectors[len(names) :] @ query
+        # A label that names the same request is the concept (its cosine with the mean is lower); read as
+        # the instruction is read, so "big red bin" is "large red bin" whichever way it is worded.
+        is_a_name = np.array([concept_names(label) == names for label in labels], dtype=bool)
         return cosine_to_relevance(np.where(is_a_name, 1.0, cosines), cosine_floor=self.cosine_floor)
 
 

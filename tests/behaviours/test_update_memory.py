@@ -71,6 +71,8 @@ def test_the_vlm_alone_does_not_take_a_place_over(make_rig: Callable[..., Rig]) 
     assert rig.tick(update) == [Status.SUCCESS]
     rig.show(update)
     assert rig.get("arbitration").winner.source == "scene"
+    # It merged (the evidence reached the node) and left the place a place.
+    assert memory.graph.nodes[place.node_id]["observations"] == 2
     assert memory.node(place.node_id).label == "unexplored area ahead"
 
 

@@ -143,3 +143,18 @@ def test_the_object_seen_on_a_place_takes_its_node_over(make_rig: Callable[..., 
     assert _nodes_labelled(rig, "unexplored area") == []
     [event] = [e for e in rig.services.events if e["kind"] == "target_sighted"]
     assert event["node_id"] == place.node_id
+
+
+def test_the_vlm_alone_seen_on_a_place_does_not_take_it_over(make_rig: Callable[..., Rig]) -> None:
+    named_only = Post(1, 3.0, 0.0, vlm_label="fire extinguisher", detector_label=None)
+    rig = walking_rig(make_rig, named_only)
+    memory = rig.get("memory")
+    memory.add_master(position_m=(-3.0, 0.0, 0.0), stamp_s=0.0)
+    rig.services.place_labels.add("unexplored area")
+    place = memory.update(position_m=(2.6, 0.0, 0.3), label="unexplored area", confidence=1.0, stamp_s=0.0)
+    rig.set("subgoal", subgoal_at(0.0, 5.0))
+    watch = rig.build(WatchForTarget, period_s=2.0, min_score=0.0)
+    rig.tick(watch, ticks=200)
+    rig.show(watch)
+    assert memory.graph.nodes[place.node_id]["observations"] >= 2  # the VLM's evidence merged into it
+    assert memory.node(place.node_id).label == "unexplored area"

@@ -362,8 +362,9 @@ class ViewObserver:
 
 def _import_rerun() -> None:
     """Import Rerun's SDK (on the thread :class:`ViewObserver` starts when it is made)."""
-    # An SDK that does not import is reported where the sink is built, by the same import.
-    with contextlib.suppress(ImportError):
+    # An SDK that does not import (or any error on the way) is reported where the sink is built, by the
+    # same import on the mission's thread; this thread only warms the module cache.
+    with contextlib.suppress(Exception):
         importlib.import_module("rerun")
 
 

@@ -63,6 +63,12 @@ class ScoredCandidate(NamedTuple):
     detection_index: int | None
     proposal_index: int | None
 
+    @property
+    def has_box(self) -> bool:
+        """Whether a detector box stands behind the candidate (source ``fused`` or ``object``): the
+        evidence the VLM's repeated confusions cannot give alone."""
+        return self.detection_index is not None
+
 
 @dataclass(frozen=True, slots=True)
 class ArbitrationResult:

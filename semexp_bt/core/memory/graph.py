@@ -20,7 +20,8 @@ from __future__ import annotations
 
 import heapq
 import math
-from collections.abc import Collection, Mapping
+from collections.abc import Mapping
+from collections.abc import Set as AbstractSet
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -240,7 +241,7 @@ class TopologicalMemory:
         label: str,
         confidence: float,
         stamp_s: float,
-        takes_over: Collection[str] = (),
+        takes_over: AbstractSet[str] = frozenset(),
     ) -> MemoryUpdate:
         """Fold one arbitrated target (P_vc of Eq. 5, L_t, C_f) into the memory (Eq. 6).
 
@@ -678,7 +679,7 @@ class TopologicalMemory:
         stamp: float,
         d_nn: float,
         maintenance: MaintenanceReport | None,
-        takes_over: Collection[str] = (),
+        takes_over: AbstractSet[str] = frozenset(),
     ) -> MemoryUpdate:
         cfg = self.config
         a = self._attrs[n]
