@@ -8,7 +8,13 @@ from typing import Any
 
 import pytest
 
-from semexp_bt.bench.markdown import cell_text, metric_table, outcome_table, success_time_table
+from semexp_bt.bench.markdown import (
+    cell_text,
+    metric_table,
+    outcome_table,
+    success_path_table,
+    success_time_table,
+)
 from semexp_bt.bench.paper_results import write_paper_results
 from semexp_bt.bench.report import write_report
 from semexp_bt.bench.rows import STATUS_ERROR, STATUS_OK
@@ -19,6 +25,7 @@ from semexp_bt.bench.stats import (
     latency_table,
     matched_rows,
     outcomes_and_safety,
+    success_paths,
     success_times,
     summarize_rows,
 )
@@ -166,6 +173,27 @@ def test_outcomes_count_falls_and_episodes_that_touched_or_breached() -> None:
     table = outcome_table(cells, strategies=["ours"])
     print(table)
     assert "| 4 | success 2, budget_exceeded 1, fallen 1 | 2 | 2 | 0.080 |" in table
+
+
+def test_success_paths_compare_the_successes_with_and_without_a_refused_confirmation() -> None:
+    rows = office_ours()  # seeds 0-2 succeed (path / L*: 1.25, 1.0, 2.0); seed 3 does not (2.0)
+    rows[0]["event_counts"] = {"confirmation_rejected": 2}
+    rows[3]["event_counts"] = {"confirmation_rejected": 5}  # a failure: not counted
+    rows.append(row("lab", "vlm_only", 0, declared=True, distance_m=0.1, path_m=9.0, geodesic_m=3.0))
+    cells = success_paths(rows)
+    print(cells)
+    assert cells["ours"] == {
+        "successes": 3,
+        "ratio": (1.25, 1.125, 1.625),
+        "rejected": 1,
+        "ratio_rejected": 1.25,
+        "ratio_clean": 1.5,
+    }
+    assert cells["vlm_only"]["ratio_rejected"] is None and cells["vlm_only"]["ratio_clean"] == 3.0
+    table = success_path_table(cells, strategies=["ours", "vlm_only"])
+    print(table)
+    assert table.splitlines()[2] == "| Ours | 3 | 1.25 (1.12-1.62) | 1 | 1.25 | 1.50 |"
+    assert table.splitlines()[3].endswith("| 1 | 3.00 (3.00-3.00) | 0 | - | 3.00 |")
 
 
 def test_success_times_are_the_median_simulated_time_of_the_successes_only() -> None:

@@ -101,6 +101,29 @@ def outcome_table(cells: Mapping[str, Mapping[str, Any]], *, strategies: Sequenc
     return "\n".join(lines)
 
 
+def success_path_table(cells: Mapping[str, Mapping[str, Any]], *, strategies: Sequence[str]) -> str:
+    """Markdown of :func:`~semexp_bt.bench.stats.success_paths`: one row per strategy with successes."""
+    lines = [
+        "| strategy | successes | path / L*, median (quartiles) | with a refused confirmation | "
+        "their median path / L* | the others' |",
+        "| --- | --- | --- | --- | --- | --- |",
+    ]
+
+    def ratio(value: float | None) -> str:
+        return "-" if value is None else f"{value:.2f}"
+
+    for strategy in strategies:
+        cell = cells.get(strategy)
+        if cell is None:
+            continue
+        median, low, high = cell["ratio"]
+        lines.append(
+            f"| {STRATEGY_TITLES.get(strategy, strategy)} | {cell['successes']} | {median:.2f} ({low:.2f}-{high:.2f})"
+            f" | {cell['rejected']} | {ratio(cell['ratio_rejected'])} | {ratio(cell['ratio_clean'])} |"
+        )
+    return "\n".join(lines)
+
+
 def latency_markdown(
     table: Sequence[Mapping[str, Any]], *, paper: Mapping[str, tuple[str, str, str]] | None = None
 ) -> str:

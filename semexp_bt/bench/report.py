@@ -19,6 +19,7 @@ from semexp_bt.bench.markdown import (
     metric_table,
     outcome_table,
     status_table,
+    success_path_table,
     success_time_table,
 )
 from semexp_bt.bench.plots import write_plots
@@ -31,6 +32,7 @@ from semexp_bt.bench.stats import (
     latency_table,
     ok_rows,
     outcomes_and_safety,
+    success_paths,
     success_times,
     throughput_by_fidelity,
     wall_per_sim_second,
@@ -95,6 +97,13 @@ def write_report(
         " (their count in brackets).",
         "",
         success_time_table(success_times(rows), scenes=scenes, strategies=strategies),
+        "",
+        "## Paths of successful episodes",
+        "",
+        "Path length over the geodesic optimum L* (SPL counts a success at L* / max(path, L*)), and how the"
+        " successes that had a confirmation refused on the way compare with the others.",
+        "",
+        success_path_table(success_paths(rows), strategies=strategies),
     ]
     parts += [
         "",

@@ -80,6 +80,42 @@ def success_times(rows: Sequence[Mapping[str, Any]]) -> dict[tuple[str, str], di
     return {cell: {"median_s": float(np.median(times)), "n": len(times)} for cell, times in groups.items()}
 
 
+#: The event a refused confirmation leaves in an episode record (``ConfirmTarget``).
+CONFIRMATION_REJECTED = "confirmation_rejected"
+
+
+def success_paths(rows: Sequence[Mapping[str, Any]]) -> dict[str, dict[str, Any]]:
+    """Strategy -> how long the successful episodes' paths were against the geodesic optimum, the part of
+    SPL that is lost on the way: ``successes``, ``ratio`` (median, first and third quartile of path / L*),
+    ``rejected`` (successes with at least one refused confirmation) and the median ratio of the successes
+    with and without one (``ratio_rejected``, ``ratio_clean``; None without such episodes). Success is
+    SR's (:func:`semexp_bt.core.metrics.success`); episodes without an L* are left out."""
+    ratios: dict[str, list[tuple[float, bool]]] = {}
+    for row in ok_rows(rows):
+        geodesic = row.get("geodesic_length_m")
+        radius = float(row.get("success_radius_m", metrics.DEFAULT_SUCCESS_RADIUS_M))
+        if not geodesic or not metrics.success(to_episode_record(row), success_radius_m=radius):
+            continue
+        ratio = float(row["path_length_m"]) / float(geodesic)
+        rejected = (row.get("event_counts") or {}).get(CONFIRMATION_REJECTED, 0) > 0
+        ratios.setdefault(row["strategy"], []).append((ratio, rejected))
+
+    def median(values: list[float]) -> float | None:
+        return float(np.median(values)) if values else None
+
+    out: dict[str, dict[str, Any]] = {}
+    for strategy, pairs in ratios.items():
+        every = [r for r, _ in pairs]
+        out[strategy] = {
+            "successes": len(pairs),
+            "ratio": tuple(float(q) for q in np.percentile(every, [50, 25, 75])),
+            "rejected": sum(rejected for _, rejected in pairs),
+            "ratio_rejected": median([r for r, rejected in pairs if rejected]),
+            "ratio_clean": median([r for r, rejected in pairs if not rejected]),
+        }
+    return out
+
+
 def outcomes_and_safety(rows: Sequence[Mapping[str, Any]]) -> dict[str, dict[str, Any]]:
     """Strategy -> how its finished episodes ended and what they touched: ``episodes``, ``outcomes`` (the
     mission outcome -> count, e.g. ``success``, ``budget_exceeded``, ``fallen``), ``with_contact`` and
