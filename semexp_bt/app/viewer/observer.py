@@ -37,6 +37,7 @@ from semexp_bt.app.recorder import TickRecorder
 from semexp_bt.app.viewer.frames import FrameCapture, WorldFrame
 from semexp_bt.app.viewer.recording import RecordingWriter
 from semexp_bt.app.viewer.tree_page import TickFeed, ViewServer, rerun_assets_dir, tree_structure
+from semexp_bt.app.viewer.world_process import WorldProcess
 
 if TYPE_CHECKING:
     from semexp_bt.app.runner import MissionRun
@@ -144,7 +145,7 @@ class ViewObserver:
             require_world_view()
         self.options = options
         self.recorder = recorder
-        self.sink_factory = sink_factory or _rerun_sink
+        self.sink_factory = sink_factory or self._default_sink
         recorder.listen(self._on_tick_record)
         self.recording_id = uuid.uuid4().hex
         self.writer = RecordingWriter(options.record_dir) if options.record_dir is not None else None
@@ -161,14 +162,18 @@ class ViewObserver:
         # Set when the mission has ended: the worker stops letting frames gather and drains the queue.
         self._draining = threading.Event()
         self._world_file: Path | None = None
-        # Rerun's SDK takes a quarter of a second of interpreter time to import, once. Imported now, on
-        # a thread of its own, it overlaps what the mission sets up before ``start`` (the simulator, the
-        # tree), whose native calls leave the interpreter free: on the 2-core VM ``start`` then waited
-        # 0.19 to 0.26 s for it, against 0.27 to 0.69 s with the import in ``start`` itself.
+        # A saved view logs the world to Rerun in a child process (world_process.py says why); the live
+        # view in this process, on the worker thread: with Rerun's gRPC server in the child the mission
+        # paid more, not less (docs/viewer.md, session 23). Either way Rerun's import starts now and
+        # overlaps what the mission sets up before ``start`` (the child's interpreter, or a thread here).
+        self._world_process: WorldProcess | None = None
         self._rerun_import: threading.Thread | None = None
         if options.world and sink_factory is None:
-            self._rerun_import = threading.Thread(target=_import_rerun, name="semexp-view-import")
-            self._rerun_import.start()
+            if options.live:
+                self._rerun_import = threading.Thread(target=_import_rerun, name="semexp-view-import")
+                self._rerun_import.start()
+            else:
+                self._world_process = WorldProcess.spawn()
 
     @property
     def url(self) -> str | None:
@@ -198,9 +203,6 @@ class ViewObserver:
         if options.live:
             self.feed = TickFeed({"mode": "live", "title": title, "tree": structure, "world": None})
             self.server = ViewServer(self.feed, host=options.host, port=options.port)
-        if self._rerun_import is not None:
-            self._rerun_import.join()
-            self._rerun_import = None
         if options.world:
             self.sink = self.sink_factory(
                 recording_id=self.recording_id,
@@ -287,6 +289,43 @@ class ViewObserver:
                 self.sink.disconnect()
             finally:
                 self.sink = None
+        elif self._world_process is not None:  # spawned, never opened (the mission did not start)
+            self._world_process.disconnect()
+        self._world_process = None
+
+    def _default_sink(
+        self,
+        *,
+        recording_id: str,
+        run: MissionRun,
+        world_file: Path | None,
+        grpc_port: int | None,
+        cors_origin: str | None,
+    ) -> FrameSink:
+        """Rerun's logger for this mission: in the world process spawned in ``__init__`` (a saved view), or
+        here (live)."""
+        decision_config = run.services.config.decision
+        if self._world_process is not None:
+            self._world_process.open(
+                recording_id=recording_id,
+                decision_config=decision_config,
+                file_path=world_file,
+                grpc_port=grpc_port,
+                cors_origin=cors_origin,
+            )
+            return self._world_process
+        if self._rerun_import is not None:
+            self._rerun_import.join()
+            self._rerun_import = None
+        from semexp_bt.app.viewer.world import WorldLogger
+
+        return WorldLogger(
+            recording_id=recording_id,
+            decision_config=decision_config,
+            file_path=world_file,
+            grpc_port=grpc_port,
+            cors_origin=cors_origin,
+        )
 
     # ------------------------------------------------------------------ the worker
     def _enqueue(self, frame: WorldFrame | None, *, wait_s: float = 0.0) -> None:
@@ -366,22 +405,3 @@ def _import_rerun() -> None:
     # same import on the mission's thread; this thread only warms the module cache.
     with contextlib.suppress(Exception):
         importlib.import_module("rerun")
-
-
-def _rerun_sink(
-    *,
-    recording_id: str,
-    run: MissionRun,
-    world_file: Path | None,
-    grpc_port: int | None,
-    cors_origin: str | None,
-) -> FrameSink:
-    from semexp_bt.app.viewer.world import WorldLogger
-
-    return WorldLogger(
-        recording_id=recording_id,
-        decision_config=run.services.config.decision,
-        file_path=world_file,
-        grpc_port=grpc_port,
-        cors_origin=cors_origin,
-    )

@@ -1,0 +1,240 @@
+"""The world's Rerun logging in a process of its own: the view's default frame sink.
+
+:class:`WorldProcess` is a :class:`~semexp_bt.app.viewer.observer.FrameSink` whose
+:class:`~semexp_bt.app.viewer.world.WorldLogger` runs in a child process. The observer's worker thread
+hands it a batch of frames at each ``flush``; the batch goes to the child as one message, and the child
+logs it to Rerun while the mission ticks.
+
+Why a process and not the worker thread alone: in one process every Rerun call of the worker takes the
+interpreter lock from the tick thread, and on the two-core development VM the worker's share (about 3 ms
+per simulated second) and Rerun's import (about 0.3 s, once) were paid in the mission's wall time
+(docs/viewer.md, session 23). A child on the other core takes both off the tick thread; what stays is
+pickling each batch. The child is spawned (not forked: the mission's process holds MuJoCo's GL context
+and torch's threads) when the observer is made, so its interpreter start and imports overlap the
+mission's set-up.
+
+The child ends when it is told to, or when the mission's process is gone (its end of the pipe closes).
+An error in the child is reported back: at once if the logger could not be made (the next ``log`` or
+``flush`` raises it), per frame otherwise (``close`` raises them, and the observer counts them as worker
+errors).
+
+Example:
+    >>> world = WorldProcess.spawn()  # doctest: +SKIP
+    >>> world.open(recording_id="r", decision_config=DecisionConfig(), file_path=Path("world.rrd"))  # doctest: +SKIP
+    >>> world.log(frame); world.flush(); world.close(); world.disconnect()  # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import multiprocessing.connection
+import os
+import socket
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
+
+from semexp_bt.app.viewer.frames import WorldFrame
+from semexp_bt.core.config import DecisionConfig
+
+#: How long ``open`` waits for the child's logger in live mode, and ``close`` for the recording to be
+#: complete (wall seconds).
+REPLY_TIMEOUT_S = 120.0
+#: How long ``disconnect`` waits for the child to end before it is killed (wall seconds).
+EXIT_TIMEOUT_S = 10.0
+#: At most this many of the child's per-frame errors travel back.
+MAX_ERRORS = 10
+#: The child's scheduling priority below the mission's (``nice``): on two cores its Rerun threads would
+#: otherwise take turns with the tick thread and the renderer's; the view may lag, the mission may not.
+WORLD_NICENESS = 10
+
+
+class WorldProcessError(RuntimeError):
+    """The child process failed to log the world (its message says what and where)."""
+
+
+class WorldProcess:
+    """A frame sink whose Rerun logger runs in a spawned child process (see the module docstring)."""
+
+    def __init__(
+        self, connection: multiprocessing.connection.Connection, process: subprocess.Popen[bytes]
+    ) -> None:
+        self._conn = connection
+        self._process = process
+        self._pending: list[WorldFrame] = []
+        self._failed: str | None = None
+        self.grpc_url: str | None = None
+
+    @classmethod
+    def spawn(cls) -> WorldProcess:
+        """Start the child (it imports Rerun and waits for :meth:`open`).
+
+        The child is a fresh interpreter running :func:`serve_world` on one end of a socket pair, not a
+        ``multiprocessing`` process: that would re-run the caller's main script in the child, which a
+        user's script without a ``__main__`` guard does not survive.
+        """
+        parent_end, child_end = socket.socketpair()
+        with child_end:
+            command = f"from {__name__} import serve_world_on; serve_world_on({child_end.fileno()})"
+            process = subprocess.Popen([sys.executable, "-c", command], pass_fds=(child_end.fileno(),))
+        return cls(multiprocessing.connection.Connection(parent_end.detach()), process)
+
+    def open(
+        self,
+        *,
+        recording_id: str,
+        decision_config: DecisionConfig,
+        file_path: Path | None,
+        grpc_port: int | None,
+        cors_origin: str | None,
+    ) -> None:
+        """Make the child's :class:`~semexp_bt.app.viewer.world.WorldLogger` (the arguments are its own).
+
+        With a ``grpc_port`` (live) it waits until the logger serves the stream, so the page never
+        announces a stream that is not there yet, and sets :attr:`grpc_url`.
+
+        Raises:
+            WorldProcessError: live, when the child could not make the logger.
+        """
+        self._send(
+            (
+                "open",
+                {
+                    "recording_id": recording_id,
+                    "decision_config": decision_config,
+                    "file_path": file_path,
+                    "grpc_port": grpc_port,
+                    "cors_origin": cors_origin,
+                },
+            )
+        )
+        if grpc_port is not None:
+            kind, value = self._reply("opening the live world stream")
+            if kind != "opened":
+                raise WorldProcessError(str(value))
+            self.grpc_url = value
+
+    def log(self, frame: WorldFrame) -> None:
+        """Hold ``frame`` for the next batch."""
+        self._raise_if_failed()
+        self._pending.append(frame)
+
+    def flush(self) -> None:
+        """Send the held frames to the child as one batch."""
+        self._raise_if_failed()
+        if self._pending:
+            batch, self._pending = self._pending, []
+            self._send(("batch", batch))
+
+    def close(self) -> None:
+        """Send what is held and wait until the child has logged everything and flushed its sinks.
+
+        Raises:
+            WorldProcessError: the child's errors (the first :data:`MAX_ERRORS` of them), if any.
+        """
+        self.flush()
+        self._send(("close", None))
+        kind, value = self._reply("completing the world recording")
+        errors = [str(value)] if kind == "error" else list(value)
+        if errors:
+            raise WorldProcessError("; ".join(errors))
+
+    def disconnect(self) -> None:
+        """Stop the child (its gRPC server and file end with it)."""
+        try:
+            self._send(("disconnect", None))
+        except WorldProcessError:
+            pass  # already gone
+        try:
+            self._process.wait(timeout=EXIT_TIMEOUT_S)
+        except subprocess.TimeoutExpired:
+            self._process.kill()
+            self._process.wait(timeout=EXIT_TIMEOUT_S)
+        self._conn.close()
+
+    def _send(self, message: tuple[str, Any]) -> None:
+        try:
+            self._conn.send(message)
+        except (BrokenPipeError, EOFError, OSError) as exc:
+            raise WorldProcessError(f"the world process is gone (exit code {self._process.poll()})") from exc
+
+    def _reply(self, doing: str) -> tuple[str, Any]:
+        """The child's next reply that is not an early error (which it keeps for :meth:`_raise_if_failed`)."""
+        while True:
+            if not self._conn.poll(REPLY_TIMEOUT_S):
+                raise WorldProcessError(
+                    f"the world process did not answer within {REPLY_TIMEOUT_S:.0f} s ({doing})"
+                )
+            try:
+                kind, value = self._conn.recv()
+            except (EOFError, OSError) as exc:
+                raise WorldProcessError(
+                    f"the world process ended while {doing} (exit code {self._process.poll()})"
+                ) from exc
+            if kind == "failed":
+                self._failed = str(value)
+                return "error", value
+            return kind, value
+
+    def _raise_if_failed(self) -> None:
+        if self._failed is None and self._conn.poll():
+            try:
+                kind, value = self._conn.recv()
+            except (EOFError, OSError):
+                kind, value = "failed", f"the world process ended (exit code {self._process.poll()})"
+            if kind == "failed":
+                self._failed = str(value)
+        if self._failed is not None:
+            raise WorldProcessError(self._failed)
+
+
+def serve_world_on(fd: int) -> None:
+    """The child's entry point: :func:`serve_world` on the inherited socket ``fd``."""
+    serve_world(multiprocessing.connection.Connection(fd))
+
+
+def serve_world(connection: multiprocessing.connection.Connection) -> None:
+    """The child's loop: make the logger on ``open``, log each ``batch``, flush on ``close``, end on
+    ``disconnect`` or when the parent's end of the pipe closes."""
+    from semexp_bt.app.viewer.world import WorldLogger
+
+    os.nice(WORLD_NICENESS)
+    logger: WorldLogger | None = None
+    errors: list[str] = []
+    while True:
+        try:
+            kind, value = connection.recv()
+        except (EOFError, OSError):
+            break
+        if kind == "open":
+            try:
+                logger = WorldLogger(**value)
+            except Exception as exc:
+                connection.send(("failed", f"the world logger could not start: {type(exc).__name__}: {exc}"))
+                continue
+            if value["grpc_port"] is not None:
+                connection.send(("opened", logger.grpc_url))
+        elif kind == "batch" and logger is not None:
+            for frame in value:
+                try:
+                    logger.log(frame)
+                except Exception as exc:
+                    if len(errors) < MAX_ERRORS:
+                        errors.append(f"tick {frame.tick}: {type(exc).__name__}: {exc}")
+            try:
+                logger.flush()
+            except Exception as exc:
+                if len(errors) < MAX_ERRORS:
+                    errors.append(f"writing a batch: {type(exc).__name__}: {exc}")
+        elif kind == "close":
+            if logger is not None:
+                try:
+                    logger.close()
+                except Exception as exc:
+                    errors.append(f"closing the world recording: {type(exc).__name__}: {exc}")
+            connection.send(("closed", errors))
+        elif kind == "disconnect":
+            if logger is not None:
+                logger.disconnect()
+            break
+    connection.close()
