@@ -26,11 +26,15 @@ Example:
 
 from __future__ import annotations
 
+import contextlib
 import multiprocessing.connection
 import os
+import signal
 import socket
+import struct
 import subprocess
 import sys
+import threading
 from pathlib import Path
 from typing import Any
 
@@ -42,6 +46,9 @@ from semexp_bt.core.config import DecisionConfig
 REPLY_TIMEOUT_S = 120.0
 #: How long ``disconnect`` waits for the child to end before it is killed (wall seconds).
 EXIT_TIMEOUT_S = 10.0
+#: How long one message to the child may wait for room in the socket (wall seconds): past it the child
+#: counts as stuck, is killed, and the view reports it; the mission never waits longer.
+SEND_TIMEOUT_S = 60.0
 #: At most this many of the child's per-frame errors travel back.
 MAX_ERRORS = 10
 #: The child's scheduling priority below the mission's (``nice``): on two cores its Rerun threads would
@@ -63,20 +70,29 @@ class WorldProcess:
         self._process = process
         self._pending: list[WorldFrame] = []
         self._failed: str | None = None
+        # The worker thread sends batches; ``finish`` sends "close" on the mission's thread, possibly while
+        # a worker that timed out still sends: one message at a time, or the child reads a torn one.
+        self._send_lock = threading.Lock()
         self.grpc_url: str | None = None
 
     @classmethod
     def spawn(cls) -> WorldProcess:
-        """Start the child (it imports Rerun and waits for :meth:`open`).
+        """Start the child (it imports Rerun, then waits for :meth:`open`).
 
         The child is a fresh interpreter running :func:`serve_world` on one end of a socket pair, not a
         ``multiprocessing`` process: that would re-run the caller's main script in the child, which a
         user's script without a ``__main__`` guard does not survive.
         """
         parent_end, child_end = socket.socketpair()
-        with child_end:
-            command = f"from {__name__} import serve_world_on; serve_world_on({child_end.fileno()})"
-            process = subprocess.Popen([sys.executable, "-c", command], pass_fds=(child_end.fileno(),))
+        seconds = int(SEND_TIMEOUT_S)
+        parent_end.setsockopt(socket.SOL_SOCKET, socket.SO_SNDTIMEO, struct.pack("ll", seconds, 0))
+        try:
+            with child_end:
+                command = f"from {__name__} import serve_world_on; serve_world_on({child_end.fileno()})"
+                process = subprocess.Popen([sys.executable, "-c", command], pass_fds=(child_end.fileno(),))
+        except BaseException:
+            parent_end.close()
+            raise
         return cls(multiprocessing.connection.Connection(parent_end.detach()), process)
 
     def open(
@@ -153,10 +169,15 @@ class WorldProcess:
         self._conn.close()
 
     def _send(self, message: tuple[str, Any]) -> None:
-        try:
-            self._conn.send(message)
-        except (BrokenPipeError, EOFError, OSError) as exc:
-            raise WorldProcessError(f"the world process is gone (exit code {self._process.poll()})") from exc
+        if self._failed is not None and message[0] != "disconnect":
+            raise WorldProcessError(self._failed)
+        with self._send_lock:
+            try:
+                self._conn.send(message)
+            except OSError as exc:  # gone, or stuck past SEND_TIMEOUT_S (the stream may be torn: end it)
+                self._failed = f"the world process stopped taking frames ({type(exc).__name__}: {exc})"
+                self._process.kill()
+                raise WorldProcessError(self._failed) from exc
 
     def _reply(self, doing: str) -> tuple[str, Any]:
         """The child's next reply that is not an early error (which it keeps for :meth:`_raise_if_failed`)."""
@@ -196,15 +217,20 @@ def serve_world_on(fd: int) -> None:
 def serve_world(connection: multiprocessing.connection.Connection) -> None:
     """The child's loop: make the logger on ``open``, log each ``batch``, flush on ``close``, end on
     ``disconnect`` or when the parent's end of the pipe closes."""
+    # Ctrl-C reaches the whole process group: the mission's process decides when the view ends.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    os.nice(WORLD_NICENESS)
+    with contextlib.suppress(ImportError):  # now, while the mission sets up; a missing SDK fails at "open"
+        import rerun  # noqa: F401
+
     from semexp_bt.app.viewer.world import WorldLogger
 
-    os.nice(WORLD_NICENESS)
     logger: WorldLogger | None = None
     errors: list[str] = []
     while True:
         try:
             kind, value = connection.recv()
-        except (EOFError, OSError):
+        except Exception:  # the mission's process is gone (EOF), or a torn message after a timeout
             break
         if kind == "open":
             try:
