@@ -1,4 +1,4 @@
-"""The world's Rerun logging in a process of its own: the view's default frame sink.
+"""The world's Rerun logging in a process of its own: the saved view's frame sink.
 
 :class:`WorldProcess` is a :class:`~semexp_bt.app.viewer.observer.FrameSink` whose
 :class:`~semexp_bt.app.viewer.world.WorldLogger` runs in a child process. The observer's worker thread
@@ -11,7 +11,8 @@ per simulated second) and Rerun's import (about 0.3 s, once) were paid in the mi
 (docs/viewer.md, session 23). A child on the other core takes both off the tick thread; what stays is
 pickling each batch. The child is spawned (not forked: the mission's process holds MuJoCo's GL context
 and torch's threads) when the observer is made, so its interpreter start and imports overlap the
-mission's set-up.
+mission's set-up. The live view does not use it: with Rerun's gRPC server in the child the mission paid
+more, not less (docs/viewer.md, session 23).
 
 The child ends when it is told to, or when the mission's process is gone (its end of the pipe closes).
 An error in the child is reported back: at once if the logger could not be made (the next ``log`` or
@@ -20,7 +21,8 @@ errors).
 
 Example:
     >>> world = WorldProcess.spawn()  # doctest: +SKIP
-    >>> world.open(recording_id="r", decision_config=DecisionConfig(), file_path=Path("world.rrd"))  # doctest: +SKIP
+    >>> world.open(recording_id="r", decision_config=DecisionConfig(), file_path=Path("world.rrd"),
+    ...            grpc_port=None, cors_origin=None)  # doctest: +SKIP
     >>> world.log(frame); world.flush(); world.close(); world.disconnect()  # doctest: +SKIP
 """
 
