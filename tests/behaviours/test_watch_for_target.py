@@ -10,6 +10,7 @@ import pytest
 from py_trees.common import Status
 
 from behaviours.watch_for_target import WatchForTarget
+from semexp_bt.core.memory import MemoryUpdate, TopologicalMemory
 from semexp_bt.core.types import Pose2D, Twist
 from tests.behaviours.rig import Rig, compact, robot_among, subgoal_at
 from tests.test_executive import Post, seeing
@@ -128,14 +129,22 @@ def test_the_papers_stop_and_perceive_takes_no_views(make_rig: Callable[..., Rig
     assert _nodes_labelled(rig, "fire extinguisher") == []
 
 
-def test_the_object_seen_on_a_place_takes_its_node_over(make_rig: Callable[..., Rig]) -> None:
-    rig = walking_rig(make_rig, EXTINGUISHER)
+def _walking_past_a_place(
+    make_rig: Callable[..., Rig], post: Post
+) -> tuple[Rig, TopologicalMemory, MemoryUpdate]:
+    """A rig walking past ``post``, and the memory's node for a frontier-like place the VLM named at full
+    confidence where the object turns out to stand: (rig, memory, the place's update)."""
+    rig = walking_rig(make_rig, post)
     memory = rig.get("memory")
     memory.add_master(position_m=(-3.0, 0.0, 0.0), stamp_s=0.0)
-    # A frontier-like place the VLM named at full confidence, where the extinguisher turns out to stand.
     rig.services.place_labels.add("unexplored area")
     place = memory.update(position_m=(2.6, 0.0, 0.3), label="unexplored area", confidence=1.0, stamp_s=0.0)
     rig.set("subgoal", subgoal_at(0.0, 5.0))
+    return rig, memory, place
+
+
+def test_the_object_seen_on_a_place_takes_its_node_over(make_rig: Callable[..., Rig]) -> None:
+    rig, memory, place = _walking_past_a_place(make_rig, EXTINGUISHER)
     watch = rig.build(WatchForTarget, period_s=2.0)
     assert rig.tick_until_done(watch, limit_s=10.0)[-1] == Status.FAILURE
     rig.show(watch)
@@ -147,12 +156,7 @@ def test_the_object_seen_on_a_place_takes_its_node_over(make_rig: Callable[..., 
 
 def test_the_vlm_alone_seen_on_a_place_does_not_take_it_over(make_rig: Callable[..., Rig]) -> None:
     named_only = Post(1, 3.0, 0.0, vlm_label="fire extinguisher", detector_label=None)
-    rig = walking_rig(make_rig, named_only)
-    memory = rig.get("memory")
-    memory.add_master(position_m=(-3.0, 0.0, 0.0), stamp_s=0.0)
-    rig.services.place_labels.add("unexplored area")
-    place = memory.update(position_m=(2.6, 0.0, 0.3), label="unexplored area", confidence=1.0, stamp_s=0.0)
-    rig.set("subgoal", subgoal_at(0.0, 5.0))
+    rig, memory, place = _walking_past_a_place(make_rig, named_only)
     watch = rig.build(WatchForTarget, period_s=2.0, min_score=0.0)
     rig.tick(watch, ticks=200)
     rig.show(watch)

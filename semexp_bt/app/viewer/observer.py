@@ -304,28 +304,22 @@ class ViewObserver:
     ) -> FrameSink:
         """Rerun's logger for this mission: in the world process spawned in ``__init__`` (a saved view), or
         here (live)."""
-        decision_config = run.services.config.decision
+        arguments: dict[str, Any] = {
+            "recording_id": recording_id,
+            "decision_config": run.services.config.decision,
+            "file_path": world_file,
+            "grpc_port": grpc_port,
+            "cors_origin": cors_origin,
+        }
         if self._world_process is not None:
-            self._world_process.open(
-                recording_id=recording_id,
-                decision_config=decision_config,
-                file_path=world_file,
-                grpc_port=grpc_port,
-                cors_origin=cors_origin,
-            )
+            self._world_process.open(**arguments)
             return self._world_process
         if self._rerun_import is not None:
             self._rerun_import.join()
             self._rerun_import = None
         from semexp_bt.app.viewer.world import WorldLogger
 
-        return WorldLogger(
-            recording_id=recording_id,
-            decision_config=decision_config,
-            file_path=world_file,
-            grpc_port=grpc_port,
-            cors_origin=cors_origin,
-        )
+        return WorldLogger(**arguments)
 
     # ------------------------------------------------------------------ the worker
     def _enqueue(self, frame: WorldFrame | None, *, wait_s: float = 0.0) -> None:

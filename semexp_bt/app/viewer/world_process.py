@@ -127,10 +127,7 @@ class WorldProcess:
             )
         )
         if grpc_port is not None:
-            kind, value = self._reply("opening the live world stream")
-            if kind != "opened":
-                raise WorldProcessError(str(value))
-            self.grpc_url = value
+            self.grpc_url = self._reply("opening the live world stream")
 
     def log(self, frame: WorldFrame) -> None:
         """Hold ``frame`` for the next batch."""
@@ -152,8 +149,7 @@ class WorldProcess:
         """
         self.flush()
         self._send(("close", None))
-        kind, value = self._reply("completing the world recording")
-        errors = [str(value)] if kind == "error" else list(value)
+        errors = self._reply("completing the world recording")
         if errors:
             raise WorldProcessError("; ".join(errors))
 
@@ -181,23 +177,27 @@ class WorldProcess:
                 self._process.kill()
                 raise WorldProcessError(self._failed) from exc
 
-    def _reply(self, doing: str) -> tuple[str, Any]:
-        """The child's next reply that is not an early error (which it keeps for :meth:`_raise_if_failed`)."""
-        while True:
-            if not self._conn.poll(REPLY_TIMEOUT_S):
-                raise WorldProcessError(
-                    f"the world process did not answer within {REPLY_TIMEOUT_S:.0f} s ({doing})"
-                )
-            try:
-                kind, value = self._conn.recv()
-            except (EOFError, OSError) as exc:
-                raise WorldProcessError(
-                    f"the world process ended while {doing} (exit code {self._process.poll()})"
-                ) from exc
-            if kind == "failed":
-                self._failed = str(value)
-                return "error", value
-            return kind, value
+    def _reply(self, doing: str) -> Any:
+        """The value of the child's next reply.
+
+        Raises:
+            WorldProcessError: no reply in time, the child ended, or it reports that it failed (which
+                :meth:`_raise_if_failed` then keeps raising).
+        """
+        if not self._conn.poll(REPLY_TIMEOUT_S):
+            raise WorldProcessError(
+                f"the world process did not answer within {REPLY_TIMEOUT_S:.0f} s ({doing})"
+            )
+        try:
+            kind, value = self._conn.recv()
+        except (EOFError, OSError) as exc:
+            raise WorldProcessError(
+                f"the world process ended while {doing} (exit code {self._process.poll()})"
+            ) from exc
+        if kind == "failed":
+            self._failed = str(value)
+            raise WorldProcessError(self._failed)
+        return value
 
     def _raise_if_failed(self) -> None:
         if self._failed is None and self._conn.poll():
