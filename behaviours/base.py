@@ -138,6 +138,27 @@ class SemExpBehaviour(py_trees.behaviour.Behaviour):
         instructed object itself."""
         return self.services.relevance.score(instruction=self.read("instruction"), label=label) >= threshold
 
+    def memory_label(self, label: str) -> str:
+        """The label under which evidence labelled ``label`` enters the memory (needs ``instruction`` and
+        ``target_label`` in READS): ``target_label`` when ``label`` names the instructed object, else
+        ``label`` itself.
+
+        Why: the memory's rules (label switch, the position step that will not crowd another label,
+        maintenance merging) compare labels as strings. A prompted detector labels its boxes with the
+        instruction's words and the VLM names the same object in its own, so without this one object
+        got one node or two depending on the instruction's wording (docs/memory.md, "One label for the
+        instructed object").
+
+        Example:
+            instruction "find the legged robot", target_label "legged robot": the VLM's
+            "quadruped robot" and the detector's "legged robot" both enter as "legged robot"; the VLM's
+            "office chair" enters as "office chair".
+        """
+        target = self.read("target_label")
+        if not target or label == target or not self.names_instructed_object(label):
+            return label
+        return str(target)
+
     def now_s(self) -> float:
         return self.services.clock()
 

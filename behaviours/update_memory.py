@@ -6,8 +6,8 @@ Semantics (it never returns RUNNING):
   feedback.
 - Halted: nothing to undo; the revival counts (below) are kept over the mission.
 
-Reads ``arbitration``, ``target``, ``observation``, ``scene_evidence``, ``subgoal``, ``local_map`` and
-``instruction``; writes ``memory``. It also adds the labels of places (directions, frontiers) to
+Reads ``arbitration``, ``target``, ``observation``, ``scene_evidence``, ``subgoal``, ``local_map``,
+``instruction`` and ``target_label``; writes ``memory``. It also adds the labels of places (directions, frontiers) to
 ``services.place_labels``, which the map-based decay reads.
 
 When there is an ``observation``, it back-projects the target pixel through the frame's intrinsics and
@@ -21,7 +21,9 @@ the pixel sees, at most ``direction_range_m`` ahead; an object's or a landmark's
 evidence for the instructed object may relabel a nearby node of another label, and evidence that names it
 with a detector box behind it takes a place's node over whatever the confidences
 (``TopologicalMemory.update``'s ``takes_over``, with ``services.place_labels``): a direction the VLM named
-with C_f 1.0 otherwise swallowed the goal's detection (garden_sim seed 0, docs/memory.md).
+with C_f 1.0 otherwise swallowed the goal's detection (garden_sim seed 0, docs/memory.md). Object evidence
+that names the instructed object enters under one label, ``target_label``, whichever words the detector or
+the VLM used (``memory_label``), so the memory holds the same nodes for every wording of the instruction.
 
 Then, with or without an observation: the surroundings of the robot count as observed (Eq. 7 decay);
 with a ``local_map``, place nodes whose neighbourhood the map has mostly seen decay too and the map's
@@ -87,6 +89,7 @@ class UpdateMemory(SemExpBehaviour):
         "scene_evidence",
         "local_map",
         "instruction",
+        "target_label",
         "memory",
     )
     WRITES = ("memory",)
@@ -278,7 +281,7 @@ class UpdateMemory(SemExpBehaviour):
                     names_the_object = boxed and not is_place and self.names_instructed_object(label)
                     result = memory.update(
                         position_m=tuple(float(v) for v in point),
-                        label=label,
+                        label=label if is_place else self.memory_label(label),
                         confidence=float(np.clip(confidence, 0.0, 1.0)),
                         stamp_s=self.now_s(),
                         takes_over=self.services.place_labels if names_the_object else frozenset(),

@@ -9,8 +9,9 @@ Semantics:
   mission's calibration and offers to the memory each object candidate that names the instructed object
   (relevance at least ``align_threshold``) with a raw Eq. 2 score of at least ``min_score``, placed on the
   object as UpdateMemory places object offers (Eq. 5-6), with C_f for the view's winner t* and the
-  normalised score for the others; an offer with a detector box behind it that lands on a place's node
-  (an unexplored direction, a frontier) takes it over, as in UpdateMemory.
+  normalised score for the others, under one label as in UpdateMemory (``memory_label``); an offer with a
+  detector box behind it that lands on a place's node (an unexplored direction, a frontier) takes it over,
+  as in UpdateMemory.
 - FAILURE, with ``nav_failure`` = ``superseded`` and a ``target_sighted`` event: once such an offer lands
   in a memory node the decision may choose (potential at least tau_p) that is not the subgoal's node and
   lies more than ``superseded_beyond_m`` from the subgoal. The tree's recovery then returns the subgoal to
@@ -170,7 +171,7 @@ class WatchForTarget(SemExpBehaviour):
                 continue
             update = memory.update(
                 position_m=tuple(float(v) for v in point),
-                label=candidate.label,
+                label=self.memory_label(candidate.label),
                 confidence=float(np.clip(self._confidence(arbitration, index), 0.0, 1.0)),
                 stamp_s=self.now_s(),
                 # As in UpdateMemory: only boxed evidence naming the instructed object takes a place over

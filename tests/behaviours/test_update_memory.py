@@ -57,6 +57,22 @@ def test_the_target_seen_on_a_place_takes_its_node_over(make_rig: Callable[..., 
     assert not [n for n in memory.nodes() if n.label == "unexplored area ahead"]
 
 
+def test_one_object_named_two_ways_is_one_node_under_the_instructions_words(
+    make_rig: Callable[..., Rig],
+) -> None:
+    # The detector labels its box with the instruction's words, the VLM names the same object in its own.
+    robot_dog = Post(1, 2.0, 0.0, vlm_label="quadruped robot", detector_label="robot dog")
+    for wording in ("find the robot dog", "find the quadruped robot"):
+        rig = make_rig(robot=robot_among(robot_dog), instructions=(wording,))
+        rig.get("memory").add_master(position_m=(-3.0, 0.0, 0.0), stamp_s=0.0)
+        rig.stage_view([robot_dog])
+        update = rig.build(UpdateMemory, offer_frontiers=False, map_frontier_confidence=0.0)
+        assert rig.tick(update) == [Status.SUCCESS]
+        rig.show(update)
+        objects = [n for n in rig.get("memory").nodes() if not n.is_master]
+        assert [n.label for n in objects] == [rig.get("target_label")], wording
+
+
 def test_the_vlm_alone_does_not_take_a_place_over(make_rig: Callable[..., Rig]) -> None:
     named_only = Post(1, 2.0, 0.0, vlm_label="fire extinguisher", detector_label=None)
     rig = make_rig(robot=robot_among(named_only))

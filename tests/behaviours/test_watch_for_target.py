@@ -162,3 +162,17 @@ def test_the_vlm_alone_seen_on_a_place_does_not_take_it_over(make_rig: Callable[
     rig.show(watch)
     assert memory.graph.nodes[place.node_id]["observations"] >= 2  # the VLM's evidence merged into it
     assert memory.node(place.node_id).label == "unexplored area"
+
+
+def test_the_object_seen_under_another_name_enters_under_the_instructions_words(
+    make_rig: Callable[..., Rig],
+) -> None:
+    robot_dog = Post(1, 3.0, 0.0, vlm_label="robot dog", detector_label="robot dog")
+    rig = walking_rig(make_rig, robot_dog, instructions=("find the quadruped robot",))
+    rig.set("subgoal", subgoal_at(0.0, 5.0))
+    watch = rig.build(WatchForTarget, period_s=2.0)
+    assert rig.tick_until_done(watch, limit_s=10.0)[-1] == Status.FAILURE
+    rig.show(watch)
+    assert _nodes_labelled(rig, "robot dog") == []
+    [(x, y)] = _nodes_labelled(rig, "quadruped robot")
+    assert math.hypot(x - 3.0, y) < 0.5
