@@ -22,7 +22,7 @@ const view = {
   index: -1,            // the record shown
   following: true,
   done: false,
-  rerun: { ready: false, timeline: "tick", time: null, events: 0, error: null, pending: null, sought: null, soughtAt: 0 },
+  rerun: { ready: false, timeline: "tick", time: null, events: 0, error: null, pending: null, sought: null, resends: 0 },
   rows: new Map(),      // node name -> {li, ms, feedback, written}
 };
 window.semexpView = {
@@ -160,13 +160,15 @@ function nearestIndex(before) {
 // ------------------------------------------------------------------------------------------------ world
 const widget = { listeners: new Map() };
 
-// How long (ms) after the tree moved Rerun the tree ignores Rerun's reports of other times: a viewer
-// still loading its recording reports where its own cursor is, and the tree must keep what the user chose.
-const SEEK_HOLD_MS = 2000;
+// After the tree moved Rerun, Rerun's reports of other times are its own cursor (a viewer still loading
+// its recording, or one that has not applied the seek yet), not the user's: the tree keeps what the user
+// chose and sends the seek again, until Rerun reports that time once, or at most this many times.
+// A hold measured in wall time instead failed under load (docs/viewer.md, "Limits and risks").
+const SEEK_RESENDS = 20;
 
 function seekWorldFromTree(tick) {
   view.rerun.sought = tick;
-  view.rerun.soughtAt = performance.now();
+  view.rerun.resends = 0;
   sendWorldTime(tick);
 }
 
@@ -190,7 +192,7 @@ function onWorldEvent(message) {
   if (view.rerun.pending !== null && view.rerun.pending !== undefined) {
     const tick = view.rerun.pending;
     view.rerun.pending = null;
-    sendWorldTime(tick);
+    seekWorldFromTree(tick);
     return;
   }
   if (event.type === "timeline_change") {
@@ -209,9 +211,16 @@ function onWorldEvent(message) {
     if (!view.records.length || view.following) return;
     if (view.rerun.sought !== null) {
       const arrived = view.rerun.timeline === "tick" && time === view.rerun.sought;
-      if (!arrived && performance.now() - view.rerun.soughtAt < SEEK_HOLD_MS) return;
+      if (arrived) {
+        view.rerun.sought = null;
+        return; // our seek came back: the tree is already there
+      }
+      if (view.rerun.resends < SEEK_RESENDS) {
+        view.rerun.resends += 1;
+        sendWorldTime(view.rerun.sought);
+        return;
+      }
       view.rerun.sought = null;
-      if (arrived) return; // our seek came back: the tree is already there
     }
     // Rerun moved (its own scrubber, or our seek coming back): the tree follows.
     const index = view.rerun.timeline === "sim_time"
