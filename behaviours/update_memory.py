@@ -7,8 +7,8 @@ Semantics (it never returns RUNNING):
 - Halted: nothing to undo; the revival counts (below) are kept over the mission.
 
 Reads ``arbitration``, ``target``, ``observation``, ``scene_evidence``, ``subgoal``, ``local_map``,
-``instruction`` and ``target_label``; writes ``memory``. It also adds the labels of places (directions, frontiers) to
-``services.place_labels``, which the map-based decay reads.
+``instruction`` and ``target_label``; writes ``memory``. It also adds the labels of places (directions,
+frontiers) to ``services.place_labels``, which the map-based decay reads.
 
 When there is an ``observation``, it back-projects the target pixel through the frame's intrinsics and
 camera-to-world transform (Eq. 5) and offers the point to the memory's gated insert-or-merge (Eq. 6).
