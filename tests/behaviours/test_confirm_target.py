@@ -15,7 +15,7 @@ from py_trees.common import Status
 
 from behaviours.confirm_target import ConfirmTarget
 from semexp_bt.core.geometry import wrap_angle
-from semexp_bt.core.types import Observation, Twist
+from semexp_bt.core.types import Observation, Pose2D, Twist
 from semexp_bt.perception.interface import PerceptionResult
 from tests.behaviours.rig import INSTRUCTION, Rig, compact, robot_among
 from tests.test_executive import Post, seeing
@@ -136,7 +136,7 @@ def test_a_target_voted_from_beyond_the_success_radius_is_walked_up_to_then_conf
     # Front surface 1.1 m away: inside the 1.3 m a single vote may reach, beyond r_s = 1.0 m.
     far = Post(1, 1.3, 0.0, vlm_label="fire extinguisher", detector_label="fire extinguisher")
     rig = rig_in_a_mapped_room_with(make_rig, far)
-    confirm = rig.build(ConfirmTarget, approach_to_m=approach_to_m)
+    confirm = rig.build(ConfirmTarget, approach_to_m=approach_to_m, view_from_m=0.0)
     statuses = rig.tick_until_done(confirm)
     rig.show(confirm)
     assert statuses[-1] == expected
@@ -150,10 +150,125 @@ def test_a_target_voted_from_beyond_the_success_radius_is_walked_up_to_then_conf
         assert "mean position is 1.1" in confirm.feedback_message
 
 
+FAR = Post(1, 1.3, 0.0, vlm_label="fire extinguisher", detector_label="fire extinguisher")
+
+
+def rig_before_a_far_target(make_rig: Callable[..., Rig], further_views: list[Callable[..., object]]) -> Rig:
+    """The robot at the origin, the target's front surface 1.1 m ahead (beyond the views' 1.0 m and the
+    step up's 0.7 m) and in its first view, the costmap filled from a turn in place; the further views follow ``further_views``."""
+    rig = make_rig(robot=robot_among(FAR), script=further_views, latency_s=1.0)
+    rig.get("memory").add_master(position_m=(0.0, 0.0, 0.0), stamp_s=0.0)
+    rig.map_around(turns=16)
+    rig.stage_view([FAR])
+    return rig
+
+
+def _view_positions(rig: Rig, confirm: ConfirmTarget) -> list[float]:
+    """Tick ``confirm`` to the end; the robot's x where each further view was requested."""
+    positions: list[float] = []
+    for _ in range(2000):
+        asked = len(rig.perception.requests)
+        (status,) = rig.tick(confirm)
+        if len(rig.perception.requests) > asked:
+            positions.append(rig.robot.base_pose().x_m)
+        if status != Status.RUNNING:
+            return positions
+    raise AssertionError("ConfirmTarget did not end")
+
+
+def test_views_from_afar_that_vote_are_followed_by_a_step_up_and_the_declaration(
+    make_rig: Callable[..., Rig],
+) -> None:
+    rig = rig_before_a_far_target(make_rig, [SEES])
+    confirm = rig.build(ConfirmTarget)
+    positions = _view_positions(rig, confirm)
+    rig.show(confirm)
+    assert confirm.status == Status.SUCCESS
+    assert len(positions) == 3 and all(0.0 < x < 0.15 for x in positions)  # about 1.0 m from the surface
+    assert 0.3 < rig.robot.base_pose().x_m < 0.45  # then up to about 0.7 m of the surface to declare
+    assert rig.get("cmd_twist") == Twist.zero()
+    assert [e["kind"] for e in rig.services.events] == ["target_confirmed"]
+
+
+def test_views_from_afar_that_fall_short_are_followed_by_a_second_set_from_close_by(
+    make_rig: Callable[..., Rig],
+) -> None:
+    # Two misses from afar (three votes of four can no longer be had), then every view from close by votes.
+    rig = rig_before_a_far_target(make_rig, [BLIND, BLIND, SEES, SEES, SEES])
+    confirm = rig.build(ConfirmTarget)
+    positions = _view_positions(rig, confirm)
+    rig.show(confirm)
+    assert confirm.status == Status.SUCCESS
+    assert all(0.0 < x < 0.15 for x in positions[:2])
+    assert len(positions) == 5 and all(0.3 < x < 0.45 for x in positions[2:])
+    assert [e["kind"] for e in rig.services.events] == ["confirmation_steps_closer", "target_confirmed"]
+
+
+def test_votes_from_afar_do_not_declare_where_the_step_up_stopped_short(make_rig: Callable[..., Rig]) -> None:
+    # A wedged base: the views from afar vote from 1.1 m, the step up goes nowhere, so it looks again from
+    # there, and those votes' mean lies beyond r_s.
+    rig = make_rig(robot=robot_among(FAR, blocked=True), script=[SEES], latency_s=1.0)
+    rig.get("memory").add_master(position_m=(0.0, 0.0, 0.0), stamp_s=0.0)
+    rig.map_around(turns=16)
+    rig.stage_view([FAR])
+    confirm = rig.build(ConfirmTarget, approach_timeout_s=2.0)
+    positions = _view_positions(rig, confirm)
+    rig.show(confirm)
+    assert confirm.status == Status.FAILURE
+    assert positions == pytest.approx([0.0] * 6, abs=1e-6)  # three votes from afar, three more after
+    assert (
+        confirm.feedback_message == "'fire extinguisher' has the votes, but its mean position is 1.10 m away"
+    )
+    kinds = [e["kind"] for e in rig.services.events]
+    assert kinds == ["confirmation_looks_again", "confirmation_rejected"]
+    assert rig.get("found_objects") == []
+
+
+def test_a_target_missed_from_both_standpoints_is_given_up(make_rig: Callable[..., Rig]) -> None:
+    rig = rig_before_a_far_target(make_rig, [BLIND])
+    confirm = rig.build(ConfirmTarget)
+    positions = _view_positions(rig, confirm)
+    rig.show(confirm)
+    assert confirm.status == Status.FAILURE
+    assert len(positions) == 4  # two from afar, two from close by
+    assert confirm.feedback_message == "only 0 of 2 further views confirmed 'fire extinguisher'"
+    assert [e["kind"] for e in rig.services.events] == ["confirmation_steps_closer", "confirmation_rejected"]
+    assert rig.get("found_objects") == []
+
+
+def test_with_view_from_m_0_every_view_is_taken_from_close_by(make_rig: Callable[..., Rig]) -> None:
+    rig = rig_before_a_far_target(make_rig, [SEES])
+    confirm = rig.build(ConfirmTarget, view_from_m=0.0)
+    positions = _view_positions(rig, confirm)
+    rig.show(confirm)
+    assert confirm.status == Status.SUCCESS
+    assert len(positions) == 3 and all(0.3 < x < 0.45 for x in positions)
+
+
+def test_a_target_voted_from_too_close_is_backed_away_from_for_the_views_then_stepped_up_to(
+    make_rig: Callable[..., Rig],
+) -> None:
+    near = Post(1, 0.7, 0.0, vlm_label="fire extinguisher", detector_label="fire extinguisher")
+    rig = rig_in_a_mapped_room_with(make_rig, near)  # front surface 0.5 m ahead: too close to see it whole
+    rig.map_from(Pose2D(-1.5, 0.0, 0.0))  # the way it came: the floor behind it is known free
+    confirm = rig.build(ConfirmTarget, view_from_m=1.0)
+    positions = _view_positions(rig, confirm)
+    rig.show(confirm)
+    assert confirm.status == Status.SUCCESS
+    assert len(positions) == 3 and all(-0.55 < x < -0.4 for x in positions)  # about 1.0 m from the surface
+    assert -0.25 < rig.robot.base_pose().x_m < -0.1  # then back up to about 0.7 m to declare
+    assert rig.get("cmd_twist") == Twist.zero()
+
+
+def test_a_view_distance_outside_a_votes_reach_is_refused_at_build_time(rig: Rig) -> None:
+    with pytest.raises(ValueError, match=r"view_from_m \(1.5\) must lie beyond approach_to_m \(0.7\)"):
+        rig.build(ConfirmTarget, view_from_m=1.5)
+
+
 def test_halting_it_while_it_steps_up_commands_a_zero_twist(make_rig: Callable[..., Rig]) -> None:
     far = Post(1, 1.3, 0.0, vlm_label="fire extinguisher", detector_label="fire extinguisher")
     rig = rig_in_a_mapped_room_with(make_rig, far)
-    confirm = rig.build(ConfirmTarget)
+    confirm = rig.build(ConfirmTarget, view_from_m=0.0)
     assert rig.tick(confirm, ticks=5) == [Status.RUNNING] * 5
     assert rig.get("cmd_twist").linear_x_mps > 0.0
     rig.halt(confirm)
