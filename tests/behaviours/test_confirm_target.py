@@ -193,14 +193,15 @@ def test_views_from_afar_that_vote_are_followed_by_a_step_up_and_the_declaration
 def test_views_from_afar_that_fall_short_are_followed_by_a_second_set_from_close_by(
     make_rig: Callable[..., Rig],
 ) -> None:
-    # Two misses from afar (three votes of four can no longer be had), then every view from close by votes.
-    rig = rig_before_a_far_target(make_rig, [BLIND, BLIND, SEES, SEES, SEES])
+    # One vote and two misses from afar (three votes of four can no longer be had), then every view from
+    # close by votes.
+    rig = rig_before_a_far_target(make_rig, [SEES, BLIND, BLIND, SEES, SEES, SEES])
     confirm = rig.build(ConfirmTarget)
     positions = _view_positions(rig, confirm)
     rig.show(confirm)
     assert confirm.status == Status.SUCCESS
-    assert all(0.0 < x < 0.15 for x in positions[:2])
-    assert len(positions) == 5 and all(0.3 < x < 0.45 for x in positions[2:])
+    assert len(positions) == 6
+    assert all(0.0 < x < 0.15 for x in positions[:3]) and all(0.3 < x < 0.45 for x in positions[3:])
     assert [e["kind"] for e in rig.services.events] == ["confirmation_steps_closer", "target_confirmed"]
 
 
@@ -224,16 +225,32 @@ def test_votes_from_afar_do_not_declare_where_the_step_up_stopped_short(make_rig
     assert rig.get("found_objects") == []
 
 
-def test_a_target_missed_from_both_standpoints_is_given_up(make_rig: Callable[..., Rig]) -> None:
+def test_a_target_that_votes_too_little_from_both_standpoints_is_given_up(
+    make_rig: Callable[..., Rig],
+) -> None:
+    rig = rig_before_a_far_target(make_rig, [SEES, BLIND, BLIND, BLIND])  # one vote in three, each time
+    confirm = rig.build(ConfirmTarget)
+    positions = _view_positions(rig, confirm)
+    rig.show(confirm)
+    assert confirm.status == Status.FAILURE
+    assert len(positions) == 6  # three from afar, three from close by
+    assert all(0.0 < x < 0.15 for x in positions[:3]) and all(0.3 < x < 0.45 for x in positions[3:])
+    assert confirm.feedback_message == "only 1 of 3 further views confirmed 'fire extinguisher'"
+    assert [e["kind"] for e in rig.services.events] == ["confirmation_steps_closer", "confirmation_rejected"]
+    assert rig.get("found_objects") == []
+
+
+def test_a_target_no_view_from_afar_voted_for_is_given_up_without_a_closer_look(
+    make_rig: Callable[..., Rig],
+) -> None:
     rig = rig_before_a_far_target(make_rig, [BLIND])
     confirm = rig.build(ConfirmTarget)
     positions = _view_positions(rig, confirm)
     rig.show(confirm)
     assert confirm.status == Status.FAILURE
-    assert len(positions) == 4  # two from afar, two from close by
+    assert len(positions) == 2 and all(0.0 < x < 0.15 for x in positions)
     assert confirm.feedback_message == "only 0 of 2 further views confirmed 'fire extinguisher'"
-    assert [e["kind"] for e in rig.services.events] == ["confirmation_steps_closer", "confirmation_rejected"]
-    assert rig.get("found_objects") == []
+    assert [e["kind"] for e in rig.services.events] == ["confirmation_rejected"]
 
 
 def test_with_view_from_m_0_every_view_is_taken_from_close_by(make_rig: Callable[..., Rig]) -> None:
