@@ -407,11 +407,13 @@ def test_remapped_memory_key_is_what_the_behaviours_use(tmp_path: Path) -> None:
     assert board.subgoal is not None and board.subgoal.position_m[:2] == (1.0, 2.0)
 
 
+#: One standpoint (``view_from_m: 0``): these tests are about the votes, with no costmap to move on; the two
+#: standpoints are tests/behaviours/test_confirm_target.py's.
 CONFIRM_TREE = (
     "tree:\n  type: Sequence\n  name: Root\n  params: {memory: true}\n  children:\n"
     "    - type: Perceive\n      name: Perceive\n"
     "    - type: Arbitrate\n      name: Arbitrate\n"
-    "    - type: ConfirmTarget\n      name: Confirm\n"
+    "    - type: ConfirmTarget\n      name: Confirm\n      params: {view_from_m: 0.0}\n"
 )
 
 
