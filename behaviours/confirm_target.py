@@ -4,14 +4,14 @@ Semantics:
 
 - It first reads the step's own ``arbitration`` (with ``scene_evidence`` and ``observation``). If that
   view does not vote for a target (below), FAILURE at once.
-- RUNNING: while it moves to ``view_from_m`` of the first vote and takes further views there
-  (``robot.observe()`` and a perception request each; RUNNING while the models think), at most
-  ``max_extra_views``; then while it steps up to the votes (below), and, if the views from afar voted
-  but too few, while it takes a second set of further views from close by.
+- RUNNING: while it steps up to the first vote (below), then while it takes further views from where it
+  stands (``robot.observe()`` and a perception request each; RUNNING while the models think), at most
+  ``max_extra_views``. With ``view_from_m`` set, the views come first from that far away and a second set
+  from close by (below).
 - SUCCESS: as soon as ``extra_views`` further views vote for a point within ``consistency_radius_m`` of
   the first, the mean of the voting points lies within ``confirm_radius_m`` of the robot, and the names
   heard at that spot agree (below); it then appends the object to ``found_objects``.
-- FAILURE: when too few views are left to reach ``extra_views`` from the last standpoint, or the votes' mean lies beyond
+- FAILURE: when too few views are left to reach ``extra_views``, or the votes' mean lies beyond
   ``confirm_radius_m``, or the names disagree. After every failure, an aligned memory node next to the
   robot and inside the camera's view has its exploration potential scaled by ``reject_potential_factor``.
 - Halted: the pending perception request is cancelled; the next start begins a new confirmation (the
@@ -21,35 +21,30 @@ Reads ``arbitration``, ``scene_evidence``, ``observation``, ``instruction``, ``t
 ``found_objects``, ``memory`` and ``local_map``; writes ``found_objects``, ``memory`` (node potentials) and,
 while it steps up, ``cmd_twist`` and ``cmd_stamp_s``.
 
-Two standpoints: the robot first turns until the first vote's point is within ``face_tolerance_deg`` of
-straight ahead, then walks straight at it, or backs straight away from it, until it is about
-``view_from_m`` away, and takes the further views there, where the whole object is in the image. It then
-steps up: it walks straight at the point (the votes' mean once there are votes) until it is
-``approach_to_m`` away. Every motion is checked against the costmap as the controller checks its own
-(``motion_is_admissible``: the footprint's clearance, unseen space, the body's sweep); each move stops
-where the next half second of motion would not pass, or after ``approach_timeout_s``, and the views wait
-for the base to stand still (at most ``_SETTLE_S``: a legged base never reads exactly zero). With the
-votes in from afar it declares from close by (where the step up stopped short, more than
-``_DECLARE_SLACK_M`` beyond ``approach_to_m``, it looks again from there instead: see-through objects
-such as shelves put the votes' depth behind their front); with some votes but too few, it takes a second
-set of at most ``max_extra_views`` views from close by, counted afresh, before it gives the target up. No
-second set when the views from afar gave no vote at all (a close look does not find what a whole view
-did not see: on Table III episodes every such second set failed too, at 6-7 s each), nor where the first
-set was already taken from close by (a base that could not back up).
+Stepping up: before the further views, the robot turns until the first vote's point is within
+``face_tolerance_deg`` of straight ahead, then walks straight at it until it is ``approach_to_m`` away
+(Nav2-style checks of every motion against the costmap, ``motion_is_admissible``: the footprint's
+clearance, unseen space, the body's sweep; it stops where the next half second of motion would not pass
+them, or after ``approach_timeout_s``), and waits for the base to stand still (at most ``_SETTLE_S``: a
+legged base never reads exactly zero).
 
-Why two: from 0.7 m of the base centre the head camera is 0.3-0.5 m from the object, which the image
-border cuts in every view (the detector's quality 0.40-0.48 against 0.93-0.95 for the same objects seen
-whole from 1.4 m; docs/planner.md, "Where SPL is lost"), so a true goal was refused there about half the
-time, its node lowered, and the robot sent elsewhere: successes with a refusal on the way walked 4.6
-times L* (median), those without 2.1. Success still needs the robot within r_s, so the declaration is
-made from close by; only the looking moves back.
-
-Why step up at all: an object at the image's edge or at the success radius's rim is what a single stop leaves most
+Why: an object at the image's edge or at the success radius's rim is what a single stop leaves most
 often (the twelve dev episodes of docs/planner.md's seventh round: robots 0.81-0.91 m from the goal whose
 further views voted 2 of 4 or 0 of 2, and one whose votes averaged 1.00 m away while it stood at 0.87 m);
 the emulated detector, like a real one, sees a centred object more reliably (its truncation and off-axis
 factors, docs/perception.md), and the mean of votes from 0.7 m lies inside r_s. A real operator does the
 same: look at it squarely, from close by.
+
+Two standpoints (``view_from_m`` > 0; off by default): from 0.7 m of the base centre the head camera is
+0.3-0.5 m from the object, which the image border cuts (docs/planner.md, "Where SPL is lost"). With
+``view_from_m`` set, the robot first walks up to, or backs straight away from, the first vote until it is
+about ``view_from_m`` away (backing only onto floor the costmap has seen, the controller's rule), takes
+the further views there, then steps up to ``approach_to_m`` to declare. If the step up stops more than
+``_DECLARE_SLACK_M`` beyond ``approach_to_m`` of the votes' mean, it looks again from where it stopped
+(the default order's evidence: votes from where it declares). With some votes from afar but too few, it
+takes a second set of at most ``max_extra_views`` views from close by, counted afresh; with no vote from
+afar, or a base that could not back up, none. Measured with ``view_from_m: 1.0`` (docs/executive.md,
+session 25): better on 40 dev episodes, worse on the first 22 of Table III, so it is not the default.
 
 Voting: a view *votes* for the target when one of its arbitration candidates is an object whose
 label names the instructed object (relevance >= ``align_threshold``), whose raw posterior score S(t)
@@ -246,9 +241,9 @@ class ConfirmTarget(SemExpBehaviour):
     view_from_m: float = param(
         "float",
         doc="take the further views first with the first vote about this far away (walking up to it or "
-        "backing away), m, and a second set from close by only if those fall short (0: views from close "
-        "by only)",
-        default=1.0,
+        "backing away), m, and a second set from close by only if those fall short (0, the default: views "
+        "from close by only; 1.0 measured worse on Table III, docs/executive.md)",
+        default=0.0,
         ge=0.0,
     )
     approach_speed_mps: float = param(

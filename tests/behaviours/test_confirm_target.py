@@ -180,7 +180,7 @@ def test_views_from_afar_that_vote_are_followed_by_a_step_up_and_the_declaration
     make_rig: Callable[..., Rig],
 ) -> None:
     rig = rig_before_a_far_target(make_rig, [SEES])
-    confirm = rig.build(ConfirmTarget)
+    confirm = rig.build(ConfirmTarget, view_from_m=1.0)
     positions = _view_positions(rig, confirm)
     rig.show(confirm)
     assert confirm.status == Status.SUCCESS
@@ -196,7 +196,7 @@ def test_views_from_afar_that_fall_short_are_followed_by_a_second_set_from_close
     # One vote and two misses from afar (three votes of four can no longer be had), then every view from
     # close by votes.
     rig = rig_before_a_far_target(make_rig, [SEES, BLIND, BLIND, SEES, SEES, SEES])
-    confirm = rig.build(ConfirmTarget)
+    confirm = rig.build(ConfirmTarget, view_from_m=1.0)
     positions = _view_positions(rig, confirm)
     rig.show(confirm)
     assert confirm.status == Status.SUCCESS
@@ -212,7 +212,7 @@ def test_votes_from_afar_do_not_declare_where_the_step_up_stopped_short(make_rig
     rig.get("memory").add_master(position_m=(0.0, 0.0, 0.0), stamp_s=0.0)
     rig.map_around(turns=16)
     rig.stage_view([FAR])
-    confirm = rig.build(ConfirmTarget, approach_timeout_s=2.0)
+    confirm = rig.build(ConfirmTarget, view_from_m=1.0, approach_timeout_s=2.0)
     positions = _view_positions(rig, confirm)
     rig.show(confirm)
     assert confirm.status == Status.FAILURE
@@ -229,7 +229,7 @@ def test_a_target_that_votes_too_little_from_both_standpoints_is_given_up(
     make_rig: Callable[..., Rig],
 ) -> None:
     rig = rig_before_a_far_target(make_rig, [SEES, BLIND, BLIND, BLIND])  # one vote in three, each time
-    confirm = rig.build(ConfirmTarget)
+    confirm = rig.build(ConfirmTarget, view_from_m=1.0)
     positions = _view_positions(rig, confirm)
     rig.show(confirm)
     assert confirm.status == Status.FAILURE
@@ -244,7 +244,7 @@ def test_a_target_no_view_from_afar_voted_for_is_given_up_without_a_closer_look(
     make_rig: Callable[..., Rig],
 ) -> None:
     rig = rig_before_a_far_target(make_rig, [BLIND])
-    confirm = rig.build(ConfirmTarget)
+    confirm = rig.build(ConfirmTarget, view_from_m=1.0)
     positions = _view_positions(rig, confirm)
     rig.show(confirm)
     assert confirm.status == Status.FAILURE
