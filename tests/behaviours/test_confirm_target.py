@@ -153,10 +153,12 @@ def test_a_target_voted_from_beyond_the_success_radius_is_walked_up_to_then_conf
 FAR = Post(1, 1.3, 0.0, vlm_label="fire extinguisher", detector_label="fire extinguisher")
 
 
-def rig_before_a_far_target(make_rig: Callable[..., Rig], further_views: list[Callable[..., object]]) -> Rig:
+def rig_before_a_far_target(
+    make_rig: Callable[..., Rig], further_views: list[Callable[..., object]], *, blocked: bool = False
+) -> Rig:
     """The robot at the origin, the target's front surface 1.1 m ahead (beyond the views' 1.0 m and the
     step up's 0.7 m) and in its first view, the costmap filled from a turn in place; the further views follow ``further_views``."""
-    rig = make_rig(robot=robot_among(FAR), script=further_views, latency_s=1.0)
+    rig = make_rig(robot=robot_among(FAR, blocked=blocked), script=further_views, latency_s=1.0)
     rig.get("memory").add_master(position_m=(0.0, 0.0, 0.0), stamp_s=0.0)
     rig.map_around(turns=16)
     rig.stage_view([FAR])
@@ -176,6 +178,11 @@ def _view_positions(rig: Rig, confirm: ConfirmTarget) -> list[float]:
     raise AssertionError("ConfirmTarget did not end")
 
 
+def _afar_then_close(positions: list[float], afar: int) -> bool:
+    """Whether the first ``afar`` views were taken about 1.0 m from FAR's surface and the rest about 0.7 m."""
+    return all(0.0 < x < 0.15 for x in positions[:afar]) and all(0.3 < x < 0.45 for x in positions[afar:])
+
+
 def test_views_from_afar_that_vote_are_followed_by_a_step_up_and_the_declaration(
     make_rig: Callable[..., Rig],
 ) -> None:
@@ -184,7 +191,7 @@ def test_views_from_afar_that_vote_are_followed_by_a_step_up_and_the_declaration
     positions = _view_positions(rig, confirm)
     rig.show(confirm)
     assert confirm.status == Status.SUCCESS
-    assert len(positions) == 3 and all(0.0 < x < 0.15 for x in positions)  # about 1.0 m from the surface
+    assert len(positions) == 3 and _afar_then_close(positions, afar=3)
     assert 0.3 < rig.robot.base_pose().x_m < 0.45  # then up to about 0.7 m of the surface to declare
     assert rig.get("cmd_twist") == Twist.zero()
     assert [e["kind"] for e in rig.services.events] == ["target_confirmed"]
@@ -200,18 +207,14 @@ def test_views_from_afar_that_fall_short_are_followed_by_a_second_set_from_close
     positions = _view_positions(rig, confirm)
     rig.show(confirm)
     assert confirm.status == Status.SUCCESS
-    assert len(positions) == 6
-    assert all(0.0 < x < 0.15 for x in positions[:3]) and all(0.3 < x < 0.45 for x in positions[3:])
+    assert len(positions) == 6 and _afar_then_close(positions, afar=3)
     assert [e["kind"] for e in rig.services.events] == ["confirmation_steps_closer", "target_confirmed"]
 
 
 def test_votes_from_afar_do_not_declare_where_the_step_up_stopped_short(make_rig: Callable[..., Rig]) -> None:
     # A wedged base: the views from afar vote from 1.1 m, the step up goes nowhere, so it looks again from
     # there, and those votes' mean lies beyond r_s.
-    rig = make_rig(robot=robot_among(FAR, blocked=True), script=[SEES], latency_s=1.0)
-    rig.get("memory").add_master(position_m=(0.0, 0.0, 0.0), stamp_s=0.0)
-    rig.map_around(turns=16)
-    rig.stage_view([FAR])
+    rig = rig_before_a_far_target(make_rig, [SEES], blocked=True)
     confirm = rig.build(ConfirmTarget, view_from_m=1.0, approach_timeout_s=2.0)
     positions = _view_positions(rig, confirm)
     rig.show(confirm)
@@ -233,8 +236,7 @@ def test_a_target_that_votes_too_little_from_both_standpoints_is_given_up(
     positions = _view_positions(rig, confirm)
     rig.show(confirm)
     assert confirm.status == Status.FAILURE
-    assert len(positions) == 6  # three from afar, three from close by
-    assert all(0.0 < x < 0.15 for x in positions[:3]) and all(0.3 < x < 0.45 for x in positions[3:])
+    assert len(positions) == 6 and _afar_then_close(positions, afar=3)
     assert confirm.feedback_message == "only 1 of 3 further views confirmed 'fire extinguisher'"
     assert [e["kind"] for e in rig.services.events] == ["confirmation_steps_closer", "confirmation_rejected"]
     assert rig.get("found_objects") == []
@@ -248,7 +250,7 @@ def test_a_target_no_view_from_afar_voted_for_is_given_up_without_a_closer_look(
     positions = _view_positions(rig, confirm)
     rig.show(confirm)
     assert confirm.status == Status.FAILURE
-    assert len(positions) == 2 and all(0.0 < x < 0.15 for x in positions)
+    assert len(positions) == 2 and _afar_then_close(positions, afar=2)
     assert confirm.feedback_message == "only 0 of 2 further views confirmed 'fire extinguisher'"
     assert [e["kind"] for e in rig.services.events] == ["confirmation_rejected"]
 
