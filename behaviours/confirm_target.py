@@ -44,7 +44,7 @@ the further views there, then steps up to ``approach_to_m`` to declare. If the s
 (the default order's evidence: votes from where it declares). With some votes from afar but too few, it
 takes a second set of at most ``max_extra_views`` views from close by, counted afresh; with no vote from
 afar, or a base that could not back up, none. Measured with ``view_from_m: 1.0`` (docs/executive.md,
-session 25): better on 40 dev episodes, worse on the first 22 of Table III, so it is not the default.
+session 25): better on 40 dev episodes, worse on the first 22-33 of Table III, so it is not the default.
 
 Voting: a view *votes* for the target when one of its arbitration candidates is an object whose
 label names the instructed object (relevance >= ``align_threshold``), whose raw posterior score S(t)
