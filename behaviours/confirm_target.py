@@ -467,7 +467,9 @@ class ConfirmTarget(SemExpBehaviour):
             self._vote_points.append(vote[1])
             self._boxed = self._boxed or vote[2]
         if self._votes >= self.extra_views:
-            return py_trees.common.Status.RUNNING  # next tick: step up (from afar) or declare
+            if self._from_afar:
+                return py_trees.common.Status.RUNNING  # next tick: the step up to declare
+            return self._succeed()
         if self._votes + (self.max_extra_views - self._views) < self.extra_views:
             if self._from_afar and self._votes > 0 and self._beyond_step_up(self._vote_points[0]):
                 self.services.log_event("confirmation_steps_closer", votes=self._votes, views=self._views)
