@@ -424,7 +424,7 @@ class ConfirmTarget(SemExpBehaviour):
                 self.command(Twist.zero())
         if self._declaring and not self._stepping:
             self._declaring = False
-            if not self._within(self._step_up_point(), self.approach_to_m + _DECLARE_SLACK_M):
+            if self._distance_to(self._step_up_point()) > self.approach_to_m + _DECLARE_SLACK_M:
                 # Stopped short (blocked, or out of time): the votes from afar do not say that the object
                 # is within r_s of where it now stands, so it looks again from here.
                 self.services.log_event("confirmation_looks_again", votes=self._votes, views=self._views)
@@ -489,13 +489,14 @@ class ConfirmTarget(SemExpBehaviour):
         """Count the further views afresh (the first vote stays the reference)."""
         self._vote_points, self._views, self._boxed = self._vote_points[:1], 0, self._first_boxed
 
-    def _within(self, point: np.ndarray, distance_m: float) -> bool:
+    def _distance_to(self, point: np.ndarray) -> float:
+        """The base's distance to ``point`` in the ground plane, m."""
         pose = self.services.robot.base_pose()
-        return math.hypot(float(point[0]) - pose.x_m, float(point[1]) - pose.y_m) <= distance_m
+        return math.hypot(float(point[0]) - pose.x_m, float(point[1]) - pose.y_m)
 
     def _beyond_step_up(self, point: np.ndarray) -> bool:
         """Whether ``point`` is farther than the step up would leave it (so a step up would move the robot)."""
-        return self.approach_to_m > 0.0 and not self._within(point, self.approach_to_m + _APPROACH_SLACK_M)
+        return self.approach_to_m > 0.0 and self._distance_to(point) > self.approach_to_m + _APPROACH_SLACK_M
 
     def _step_up_point(self) -> np.ndarray:
         """Where the step up heads: the first vote's point, or the votes' mean once further views voted."""
@@ -516,17 +517,15 @@ class ConfirmTarget(SemExpBehaviour):
         dx, dy = float(point[0]) - pose.x_m, float(point[1]) - pose.y_m
         bearing = wrap_angle(math.atan2(dy, dx) - pose.yaw_rad)
         distance = math.hypot(dx, dy)
+        gap = distance - distance_m  # > 0: too far, < 0: too close
+        speed = min(self.approach_speed_mps, max(0.05, abs(gap)))
         if abs(bearing) > math.radians(self.face_tolerance_deg):
             rate = turn_rate_toward(bearing, max_radps=_TURN_MAX_RADPS)
             twist, doing = Twist(angular_z_radps=rate), "turning to face"
-        elif distance_m > 0.0 and distance > distance_m + _APPROACH_SLACK_M:
-            speed = min(self.approach_speed_mps, max(0.05, distance - distance_m))
+        elif distance_m > 0.0 and gap > _APPROACH_SLACK_M:
             twist = Twist(linear_x_mps=speed, angular_z_radps=float(np.clip(1.5 * bearing, -0.3, 0.3)))
             doing = "walking up to"
-        elif may_back_up and distance < distance_m - (
-            _APPROACH_SLACK_M if self._backing else _BACK_UP_SLACK_M
-        ):
-            speed = min(self.approach_speed_mps, max(0.05, distance_m - distance))
+        elif may_back_up and -gap > (_APPROACH_SLACK_M if self._backing else _BACK_UP_SLACK_M):
             twist, doing = Twist(linear_x_mps=-speed), "backing away from"
             self._backing = True
         else:
@@ -551,7 +550,7 @@ class ConfirmTarget(SemExpBehaviour):
         label = self._label
         pose = self.services.robot.base_pose()
         point = np.mean(self._vote_points, axis=0)
-        reach = math.hypot(point[0] - pose.x_m, point[1] - pose.y_m)
+        reach = self._distance_to(point)
         if reach > self.confirm_radius_m:
             return self._reject(f"{label!r} has the votes, but its mean position is {reach:.2f} m away")
         if not self._boxed:
