@@ -67,6 +67,20 @@ RECOVERY_HOLD_S = 1.0
 #: trained on commands that rarely sit at zero, keeps stepping and swaying: 0.023 m/s median trunk speed on
 #: flat ground against 0.0003 with the hold (docs/gait.md, "Stance hold"). 0.4 s is one trot cycle and a half.
 STANCE_FADE_S = 0.4
+#: The run-time controller's trot deadband (command norm as :meth:`TrotPrior.gate` weighs it), in place of
+#: the trained prior's 0.05: that one stands still for turns slower than 0.17 rad/s and creeps slower than
+#: 0.05 m/s, which the navigation controllers ask for (14 % of a dynamic mission's moving commands,
+#: docs/gait.md "Command tracking"). Trotting at such commands the policy drifts instead; the tracking
+#: correction (:class:`CommandTracking`) takes the drift out.
+WALKING_DEADBAND = 0.005
+#: Command tracking (:class:`CommandTracking`): integral gain (1/s) on the velocity error, the time constant
+#: (s) of the low-pass on the measured body velocity (the trot rocks it at 2.5 Hz), and the largest
+#: correction (vx, vy in m/s, yaw rate in rad/s). The shipped policy's drift on flat ground is about
+#: -0.04 m/s and +0.1 rad/s (docs/gait.md); the limits leave room for slopes and wear, not for a fight with
+#: furniture.
+TRACKING_GAIN_PER_S = 1.0
+TRACKING_FILTER_S = 0.4
+TRACKING_LIMIT = np.array([0.15, 0.1, 0.4])
 #: Where the shipped checkpoint lives.
 DEFAULT_CHECKPOINT_DIR = Path(__file__).resolve().parent / "gait_checkpoints"
 WEIGHTS_FILE = "policy.npz"
@@ -136,17 +150,23 @@ class TrotPrior:
     def standing_pose_rad(self) -> FloatArray:
         return self._standing.copy()
 
-    def gate(self, command: FloatArray) -> FloatArray:
-        """How much trot (0 = stand, 1 = full) each command in ``(N, 3)`` asks for."""
+    def gate(self, command: FloatArray, deadband: float | None = None) -> FloatArray:
+        """How much trot (0 = stand, 1 = full) each command in ``(N, 3)`` asks for: none below
+        ``deadband`` (the config's ``command_deadband`` when None), in full above twice it."""
         norm = np.sqrt(command[:, 0] ** 2 + command[:, 1] ** 2 + (0.3 * command[:, 2]) ** 2)
-        deadband = self.config.command_deadband
+        deadband = self.config.command_deadband if deadband is None else deadband
         return np.clip((norm - deadband) / max(deadband, 1e-9), 0.0, 1.0)
 
-    def foot_positions(self, phase: FloatArray, command: FloatArray) -> FloatArray:
-        """Foot targets ``(N, 4, 3)`` relative to each leg's nominal foot point (x fwd, y left, z up)."""
+    def foot_positions(
+        self, phase: FloatArray, command: FloatArray, gate: FloatArray | None = None
+    ) -> FloatArray:
+        """Foot targets ``(N, 4, 3)`` relative to each leg's nominal foot point (x fwd, y left, z up).
+
+        ``gate`` ``(N,)`` overrides :meth:`gate` of the command (the run-time controller gates by what was
+        asked, not by the tracking-corrected command it passes: :class:`GaitController`)."""
         cfg = self.config
         stance_s = 0.5 / cfg.frequency_hz
-        gate = self.gate(command)[:, None]
+        gate = (self.gate(command) if gate is None else np.asarray(gate, dtype=float))[:, None]
         vx = command[:, 0:1] - command[:, 2:3] * self._foot_y_m[None, :]
         vy = command[:, 1:2] + command[:, 2:3] * self._foot_x_m[None, :]
         half_x = 0.5 * cfg.stride_gain * vx * stance_s * gate
@@ -160,9 +180,12 @@ class TrotPrior:
         lift = np.where(swing, cfg.foot_lift_m * 0.5 * (1.0 - np.cos(2.0 * np.pi * s_swing)), 0.0) * gate
         return np.stack([half_x * progress, half_y * progress, lift], axis=-1)
 
-    def joint_targets(self, phase: FloatArray, command: FloatArray) -> FloatArray:
-        """Reference joint targets ``(N, 12)`` for phases ``(N,)`` in [0, 1) and commands ``(N, 3)``."""
-        feet = self.foot_positions(np.asarray(phase, dtype=float), np.asarray(command, dtype=float))
+    def joint_targets(
+        self, phase: FloatArray, command: FloatArray, gate: FloatArray | None = None
+    ) -> FloatArray:
+        """Reference joint targets ``(N, 12)`` for phases ``(N,)`` in [0, 1) and commands ``(N, 3)``
+        (``gate`` as in :meth:`foot_positions`)."""
+        feet = self.foot_positions(np.asarray(phase, dtype=float), np.asarray(command, dtype=float), gate)
         return np.clip(self.leg_ik(feet), self._lower, self._upper)
 
     def leg_ik(self, feet: FloatArray) -> FloatArray:
@@ -360,9 +383,12 @@ class GaitPolicy:
         config = PolicyConfig(trot=trot or TrotConfig(), hidden_sizes=())
         return cls(config=config, actor=NumpyActor.zeros(), prior=TrotPrior(config.trot))
 
-    def joint_targets(self, phase: FloatArray, command: FloatArray, action: FloatArray) -> FloatArray:
-        """Joint targets ``(N, 12)`` = prior + residual_scale * action."""
-        return self.prior.joint_targets(phase, command) + self.config.residual_scale_rad * action
+    def joint_targets(
+        self, phase: FloatArray, command: FloatArray, action: FloatArray, gate: FloatArray | None = None
+    ) -> FloatArray:
+        """Joint targets ``(N, 12)`` = prior + residual_scale * action (``gate`` as in
+        :meth:`TrotPrior.foot_positions`)."""
+        return self.prior.joint_targets(phase, command, gate) + self.config.residual_scale_rad * action
 
 
 def save_policy(directory: Path, *, config: PolicyConfig, actor: NumpyActor) -> None:
@@ -474,6 +500,44 @@ class StanceHold:
         return self.share.copy()
 
 
+class CommandTracking:
+    """Per robot of a batch: the correction added to the ramped command so the body realises it.
+
+    The residual policy does not walk exactly what it is told: on flat ground, asked for small commands, it
+    walks about 0.04 m/s forward and turns about 0.1 rad/s right of them, so a turn asked at 0.2 rad/s
+    realises 0.08 and one at -0.2 realises -0.3 (docs/gait.md, "Command tracking"). The correction integrates
+    the error between the ramped command and the measured body velocity (low-passed over
+    :data:`TRACKING_FILTER_S`) at :data:`TRACKING_GAIN_PER_S`, clipped to :data:`TRACKING_LIMIT`. It
+    integrates only while the robot walks and is held, not cleared, while it stands: the drift belongs to the
+    gait, so the next walk starts corrected.
+
+    Example: asked for a 0.2 rad/s turn in place, the robot turns at 0.08 rad/s at first; over about two
+    seconds the correction climbs to +0.12 rad/s and the body turns at 0.2.
+
+    Args:
+        count: robots in the batch.
+        control_dt_s: the period between :meth:`update` calls.
+    """
+
+    def __init__(self, count: int, *, control_dt_s: float = CONTROL_DT_S) -> None:
+        self.control_dt_s = control_dt_s
+        self.correction = np.zeros((count, 3))
+        self._measured = np.zeros((count, 3))
+
+    def update(
+        self, command: FloatArray, measured: FloatArray, walking: npt.NDArray[np.bool_]
+    ) -> FloatArray:
+        """Advance one period with the ramped ``command`` and the body's ``measured`` (vx, vy, yaw rate),
+        both ``(count, 3)``, and who is ``walking`` ``(count,)``; returns the command to pass on."""
+        self._measured += (np.asarray(measured, dtype=float) - self._measured) * (
+            self.control_dt_s / TRACKING_FILTER_S
+        )
+        step = TRACKING_GAIN_PER_S * self.control_dt_s * (command - self._measured)
+        updated = np.clip(self.correction + step, -TRACKING_LIMIT, TRACKING_LIMIT)
+        self.correction = np.where(walking[:, None], updated, self.correction)
+        return np.where(walking[:, None], command + self.correction, command)
+
+
 class GaitController:
     """Runs a gait on a :class:`~robots.interface.Robot` every tick: ``controller(robot, twist)``.
 
@@ -485,9 +549,14 @@ class GaitController:
     requested twist is replaced by zero (ramped down: a raw step is itself a fall risk) until the robot
     has been level again for :data:`RECOVERY_HOLD_S`.
 
-    Stance hold (:class:`StanceHold`): while the ramped command is inside the prior's deadband and no
-    recovery is under way, the residual fades out, and the policy's next observation holds the action as
-    applied, so a stopped robot is in the reference gait's own standing state.
+    Walking (:data:`WALKING_DEADBAND`): the trot prior is gated by the ramped command against this
+    controller's deadband, ten times below the trained prior's, so slow turns and creeps are walked, not
+    stood through; :class:`CommandTracking` corrects what the policy and the prior are told (from the body
+    velocity, ``robot.base_twist()``) so the body realises the command.
+
+    Stance hold (:class:`StanceHold`): while the ramped command is inside that deadband and no recovery is
+    under way, the residual fades out, and the policy's next observation holds the action as applied, so a
+    stopped robot is in the reference gait's own standing state.
     """
 
     def __init__(self, policy: GaitPolicy, *, control_dt_s: float = CONTROL_DT_S) -> None:
@@ -498,6 +567,7 @@ class GaitController:
         self.command = np.zeros(3)
         self.recovery = NearFallRecovery(1, control_dt_s=control_dt_s)
         self.stance = StanceHold(1, control_dt_s=control_dt_s)
+        self.tracking = CommandTracking(1, control_dt_s=control_dt_s)
         self._standing = policy.prior.standing_pose_rad
 
     @property
@@ -516,6 +586,7 @@ class GaitController:
         self.command = np.zeros(3)
         self.recovery = NearFallRecovery(1, control_dt_s=self.control_dt_s)
         self.stance = StanceHold(1, control_dt_s=self.control_dt_s)
+        self.tracking = CommandTracking(1, control_dt_s=self.control_dt_s)
 
     def __call__(self, robot: Robot, twist: Twist) -> None:
         raw = [twist.linear_x_mps, twist.linear_y_mps, twist.angular_z_radps]
@@ -528,7 +599,11 @@ class GaitController:
         if recovering[0]:
             requested = np.zeros(3)
         self.command = ramp_command(self.command, requested, self.control_dt_s)
-        command = self.command[None, :]
+        gate = self.policy.prior.gate(self.command[None, :], WALKING_DEADBAND)
+        walking = (gate > 0.0) & ~recovering
+        body = robot.base_twist()
+        measured = np.array([[body.linear_x_mps, body.linear_y_mps, body.angular_z_radps]])
+        command = self.tracking.update(self.command[None, :], measured, walking)
         obs = build_observation(
             command=command,
             gyro_radps=np.asarray(imu.angular_velocity_radps, dtype=float)[None, :],
@@ -538,9 +613,9 @@ class GaitController:
             last_action=self.last_action[None, :],
             phase=np.array([self.phase]),
         )
-        idle = (self.policy.prior.gate(command) <= 0.0) & ~recovering
+        idle = (gate <= 0.0) & ~recovering
         action = self.stance.update(idle)[:, None] * self.policy.actor(obs)
-        targets = self.policy.joint_targets(np.array([self.phase]), command, action)[0]
+        targets = self.policy.joint_targets(np.array([self.phase]), command, action, gate)[0]
         robot.command_joint_targets(targets)
         self.last_action = action[0]
         self.phase = (self.phase + self.control_dt_s * self.policy.config.trot.frequency_hz) % 1.0

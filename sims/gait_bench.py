@@ -34,6 +34,8 @@ from robots.gait_policy import (
     COMMAND_LOW,
     CONTROL_DT_S,
     OBS_DIM,
+    WALKING_DEADBAND,
+    CommandTracking,
     GaitPolicy,
     NearFallRecovery,
     StanceHold,
@@ -171,9 +173,11 @@ def _run(
 ) -> tuple[int, _Stats, FloatArray]:
     """Step ``env`` under ``policy`` for ``steps``; ``on_step(k, env)`` may change commands or push.
 
-    With ``ramp`` the commands are ramped as :class:`GaitController` ramps them, its stance hold fades
-    the residual at a zero command (:class:`StanceHold`), and with ``recovery`` they are also held at zero
-    through near falls as it does (:class:`NearFallRecovery`)."""
+    With ``ramp`` every step is :class:`GaitController`'s: the commands are ramped, the trot is gated at
+    its walking deadband, the command tracking corrects what the policy is told (:class:`CommandTracking`),
+    the stance hold fades the residual at a zero command (:class:`StanceHold`), and with ``recovery`` the
+    commands are also held at zero through near falls (:class:`NearFallRecovery`). Without ``ramp``, the
+    policy as trained: raw commands, the prior's own gate."""
     stats = _Stats()
     falls = np.zeros(env.num_envs, dtype=int)
     obs = env.observe(noisy=False)
@@ -184,7 +188,9 @@ def _run(
     ramped = np.zeros_like(requested) if ramp else requested
     near_fall = NearFallRecovery(env.num_envs)
     stance = StanceHold(env.num_envs)
+    tracking = CommandTracking(env.num_envs)
     share = np.ones(env.num_envs)
+    gate: FloatArray | None = None
     for k in range(steps):
         if on_step is not None:
             env.commands[:] = requested
@@ -197,13 +203,16 @@ def _run(
             holding = near_fall.update(env.gravity_body) if recovery else np.zeros(env.num_envs, dtype=bool)
             asked = np.where(holding[:, None], 0.0, requested)
             ramped = ramp_command(ramped, asked)
-            env.commands[:] = ramped
-            share = stance.update((policy.prior.gate(ramped) <= 0.0) & ~holding)
+            gate = policy.prior.gate(ramped, WALKING_DEADBAND)
+            walking = (gate > 0.0) & ~holding
+            measured = np.concatenate([env.base_lin_vel_body[:, :2], env.base_ang_vel_body[:, 2:]], axis=1)
+            env.commands[:] = tracking.update(ramped, measured, walking)
+            share = stance.update((gate <= 0.0) & ~holding)
             obs = env.observe(noisy=False)
         elif on_step is not None:
             obs = env.observe(noisy=False)
         before = env.prev_targets.copy()
-        _, _, done, info = env.step(share[:, None] * policy.actor(obs))
+        _, _, done, info = env.step(share[:, None] * policy.actor(obs), trot_gate=gate)
         obs = env.observe(noisy=False)
         since_change += CONTROL_DT_S
         falls += info["terminated"].astype(int)

@@ -611,11 +611,15 @@ class GaitEnv:
         self.push(due, np.column_stack([np.cos(angle), np.sin(angle)]) * speed[:, None])
         self.next_push_step[due] = self.episode_step[due] + np.array([self._push_delay_steps() for _ in due])
 
-    def step(self, actions: FloatArray) -> tuple[FloatArray, FloatArray, BoolArray, dict[str, AnyArray]]:
+    def step(
+        self, actions: FloatArray, *, trot_gate: FloatArray | None = None
+    ) -> tuple[FloatArray, FloatArray, BoolArray, dict[str, AnyArray]]:
         """Advance every environment by one control period.
 
         Args:
             actions: ``(N, 12)`` residual actions (clipped to [-1, 1]).
+            trot_gate: ``(N,)`` trot gates in place of the prior's own gate of ``commands`` (the run-time
+                controller's, :class:`robots.gait_policy.GaitController`); None in training.
 
         Returns:
             ``(obs, reward, done, info)``: next actor observations (of the reset state where an episode
@@ -629,7 +633,8 @@ class GaitEnv:
                 f"actions must have shape ({self.num_envs}, {ACTION_DIM}), got {actions.shape}"
             )
         targets = (
-            self.prior.joint_targets(self.phase, self.commands) + self.config.residual_scale_rad * actions
+            self.prior.joint_targets(self.phase, self.commands, trot_gate)
+            + self.config.residual_scale_rad * actions
         )
         targets = np.clip(targets, self.spec.joint_lower_rad, self.spec.joint_upper_rad)
         feet_before = self.feet_pos[:, :, :2].copy()
