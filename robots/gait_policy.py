@@ -524,9 +524,7 @@ class CommandTracking:
         self.correction = np.zeros((count, 3))
         self._measured = np.zeros((count, 3))
 
-    def update(
-        self, command: FloatArray, measured: FloatArray, walking: npt.NDArray[np.bool_]
-    ) -> FloatArray:
+    def update(self, command: FloatArray, measured: FloatArray, walking: npt.NDArray[np.bool_]) -> FloatArray:
         """Advance one period with the ramped ``command`` and the body's ``measured`` (vx, vy, yaw rate),
         both ``(count, 3)``, and who is ``walking`` ``(count,)``; returns the command to pass on."""
         self._measured += (np.asarray(measured, dtype=float) - self._measured) * (

@@ -282,8 +282,8 @@ def _pushes(policy: GaitPolicy, *, seeds: int, pushes_per_seed: int, seed: int) 
 
     original_step = env.step
 
-    def counting_step(actions: FloatArray) -> Any:
-        result = original_step(actions)
+    def counting_step(actions: FloatArray, *, trot_gate: FloatArray | None = None) -> Any:
+        result = original_step(actions, trot_gate=trot_gate)
         falls_total[:] += result[3]["terminated"].astype(int)
         return result
 
@@ -421,8 +421,8 @@ def _obstacle_course(policy: GaitPolicy, *, seeds: int, minutes: float, seed: in
     contact_steps = np.zeros(seeds)
     original_step = env.step
 
-    def counting_step(actions: FloatArray) -> Any:
-        result = original_step(actions)
+    def counting_step(actions: FloatArray, *, trot_gate: FloatArray | None = None) -> Any:
+        result = original_step(actions, trot_gate=trot_gate)
         contact_steps[:] += result[3]["contact_force_n"] > 1.0
         return result
 

@@ -451,3 +451,55 @@ def test_a_recovering_controller_keeps_the_full_residual_at_a_zero_command() -> 
         assert controller.stance.share[0] == 1.0
     finally:
         robot.close()
+
+
+def test_command_tracking_integrates_a_drift_out_while_walking_and_holds_it_while_standing() -> None:
+    from robots.gait_policy import TRACKING_LIMIT, CommandTracking
+
+    # A plant that walks what it is told plus a constant drift (the shipped policy's is about this).
+    drift = np.array([[0.04, 0.0, -0.1], [0.04, 0.0, -0.1]])
+    tracking = CommandTracking(2, control_dt_s=0.02)
+    asked = np.array([[0.0, 0.0, 0.2], [0.0, 0.0, 0.2]])
+    walking = np.array([True, False])
+    body = np.zeros((2, 3))
+    for _ in range(500):  # 10 s
+        told = tracking.update(asked, body, walking)
+        body = told + drift
+    # The walking robot realises the command; the standing one is told the command unchanged.
+    np.testing.assert_allclose(body[0], asked[0], atol=2e-3)
+    np.testing.assert_allclose(tracking.correction[0], -drift[0], atol=2e-3)
+    np.testing.assert_array_equal(told[1], asked[1])
+    np.testing.assert_array_equal(tracking.correction[1], np.zeros(3))
+    # Standing, the first robot's correction is held (the drift is the gait's), not applied.
+    held = tracking.correction[0].copy()
+    for _ in range(100):
+        told = tracking.update(np.zeros((2, 3)), np.zeros((2, 3)), np.array([False, False]))
+    np.testing.assert_array_equal(tracking.correction[0], held)
+    np.testing.assert_array_equal(told, np.zeros((2, 3)))
+    # A body that does not move at all (pushing on a wall) winds the correction up to its limit, no further.
+    for _ in range(2000):
+        tracking.update(np.array([[0.5, 0.3, 1.0]] * 2), np.zeros((2, 3)), np.array([True, True]))
+    np.testing.assert_allclose(tracking.correction, np.tile(TRACKING_LIMIT, (2, 1)))
+
+
+def _yaw_rate_over(
+    controller: GaitController, robot: MujocoRobot, twist: Twist, settle_s: float, measure_s: float
+) -> float:
+    _tick(controller, robot, twist, int(round(settle_s / 0.02)))
+    start = robot.base_pose().yaw_rad
+    _tick(controller, robot, twist, int(round(measure_s / 0.02)))
+    return math.remainder(robot.base_pose().yaw_rad - start, math.tau) / measure_s
+
+
+@pytest.mark.parametrize("rate_radps", [0.15, -0.15])
+def test_controller_turns_as_slowly_as_asked(rate_radps: float) -> None:
+    # 0.15 rad/s is inside the trained prior's deadband (norm 0.045 < 0.05): as trained, the robot stands.
+    robot = _flat_robot()
+    try:
+        controller = GaitController(load_policy())
+        realised = _yaw_rate_over(controller, robot, Twist(angular_z_radps=rate_radps), 3.0, 3.0)
+        print(f"asked {rate_radps:+.2f} rad/s, realised {realised:+.3f} rad/s")
+        assert realised == pytest.approx(rate_radps, rel=0.2)
+        assert not robot.safety().fallen
+    finally:
+        robot.close()
