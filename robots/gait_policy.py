@@ -532,8 +532,11 @@ class CommandTracking:
         )
         step = TRACKING_GAIN_PER_S * self.control_dt_s * (command - self._measured)
         updated = np.clip(self.correction + step, -TRACKING_LIMIT, TRACKING_LIMIT)
-        self.correction = np.where(walking[:, None], updated, self.correction)
-        return np.where(walking[:, None], command + self.correction, command)
+        # Back-calculation: what the command range leaves of the correction is all it keeps, so a command
+        # the gait cannot reach (a full-speed turn) does not wind it up past the range.
+        told = np.clip(command + updated, COMMAND_LOW, COMMAND_HIGH)
+        self.correction = np.where(walking[:, None], told - command, self.correction)
+        return np.where(walking[:, None], told, command)
 
 
 class GaitController:

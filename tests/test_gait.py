@@ -454,7 +454,7 @@ def test_a_recovering_controller_keeps_the_full_residual_at_a_zero_command() -> 
 
 
 def test_command_tracking_integrates_a_drift_out_while_walking_and_holds_it_while_standing() -> None:
-    from robots.gait_policy import TRACKING_LIMIT, CommandTracking
+    from robots.gait_policy import COMMAND_HIGH, TRACKING_LIMIT, CommandTracking
 
     # A plant that walks what it is told plus a constant drift (the shipped policy's is about this).
     drift = np.array([[0.04, 0.0, -0.1], [0.04, 0.0, -0.1]])
@@ -478,8 +478,14 @@ def test_command_tracking_integrates_a_drift_out_while_walking_and_holds_it_whil
     np.testing.assert_array_equal(told, np.zeros((2, 3)))
     # A body that does not move at all (pushing on a wall) winds the correction up to its limit, no further.
     for _ in range(2000):
-        tracking.update(np.array([[0.5, 0.3, 1.0]] * 2), np.zeros((2, 3)), np.array([True, True]))
+        tracking.update(np.array([[0.3, 0.1, 0.3]] * 2), np.zeros((2, 3)), np.array([True, True]))
     np.testing.assert_allclose(tracking.correction, np.tile(TRACKING_LIMIT, (2, 1)))
+    # At the edge of the command range there is no room: the command passes unchanged, nothing winds up.
+    edge = np.tile(COMMAND_HIGH, (2, 1))
+    for _ in range(200):
+        told = tracking.update(edge, np.zeros((2, 3)), np.array([True, True]))
+    np.testing.assert_array_equal(told, edge)
+    np.testing.assert_array_equal(tracking.correction, np.zeros((2, 3)))
 
 
 def _yaw_rate_over(
