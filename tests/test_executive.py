@@ -636,7 +636,7 @@ def test_confirmation_declares_only_when_the_mean_vote_lies_within_the_success_r
     tmp_path: Path, post_x_m: float, outcome: py_trees.common.Status
 ) -> None:
     """Single views may vote up to confirm_radius_m + vote_slack_m (1.3 m) away; success needs the mean
-    voting position within confirm_radius_m (1.0 m). A post whose front surface is 1.25 m away gets every
+    voting position within confirm_radius_m less declare_margin_m (0.95 m). A post whose front surface is 1.25 m away gets every
     vote and is still not declared."""
     target = Post(1, post_x_m, 0.0, vlm_label="fire extinguisher", detector_label="fire extinguisher")
     sees = seeing([target], directions=False)

@@ -150,6 +150,22 @@ def test_a_target_voted_from_beyond_the_success_radius_is_walked_up_to_then_conf
         assert "mean position is 1.1" in confirm.feedback_message
 
 
+@pytest.mark.parametrize(("declare_margin_m", "expected"), [(0.05, Status.FAILURE), (0.0, Status.SUCCESS)])
+def test_a_target_on_the_rim_of_the_success_radius_is_not_declared(
+    make_rig: Callable[..., Rig], declare_margin_m: float, expected: Status
+) -> None:
+    # Front surface 0.97 m away, the robot staying where it is: inside r_s = 1.0 m, but not by the margin.
+    rim = Post(1, 1.17, 0.0, vlm_label="fire extinguisher", detector_label="fire extinguisher")
+    rig = rig_in_a_mapped_room_with(make_rig, rim)
+    confirm = rig.build(ConfirmTarget, approach_to_m=0.0, view_from_m=0.0, declare_margin_m=declare_margin_m)
+    statuses = rig.tick_until_done(confirm)
+    rig.show(confirm)
+    assert statuses[-1] == expected
+    if expected == Status.FAILURE:
+        assert "mean position is 0.97 m away" in confirm.feedback_message
+        assert rig.get("found_objects") in (None, [])
+
+
 FAR = Post(1, 1.3, 0.0, vlm_label="fire extinguisher", detector_label="fire extinguisher")
 
 
@@ -295,7 +311,10 @@ def test_halting_it_while_it_steps_up_commands_a_zero_twist(make_rig: Callable[.
 
 
 def test_an_approach_distance_outside_the_success_radius_is_refused_at_build_time(rig: Rig) -> None:
-    with pytest.raises(ValueError, match=r"approach_to_m \(1.2\) must be less than confirm_radius_m \(1.0\)"):
+    with pytest.raises(
+        ValueError,
+        match=r"approach_to_m \(1.2\) must be less than confirm_radius_m - declare_margin_m \(0.95\)",
+    ):
         rig.build(ConfirmTarget, approach_to_m=1.2)
 
 
