@@ -62,7 +62,7 @@ NEAR_FALL_TILT_RAD = 0.25
 #: RECOVERY_HOLD_S.
 RECOVERED_TILT_RAD = 0.1
 RECOVERY_HOLD_S = 1.0
-#: Time (s) over which the residual fades out once the ramped command is inside the prior's deadband, and
+#: Time (s) over which the residual fades out once the ramped command is inside the walking deadband, and
 #: back in once it leaves it (:class:`StanceHold`). The trot prior stands still there; the residual policy,
 #: trained on commands that rarely sit at zero, keeps stepping and swaying: 0.023 m/s median trunk speed on
 #: flat ground against 0.0003 with the hold (docs/gait.md, "Stance hold"). 0.4 s is one trot cycle and a half.
@@ -70,7 +70,7 @@ STANCE_FADE_S = 0.4
 #: The run-time controller's trot deadband (command norm as :meth:`TrotPrior.gate` weighs it), in place of
 #: the trained prior's 0.05: that one stands still for turns slower than 0.17 rad/s and creeps slower than
 #: 0.05 m/s, which the navigation controllers ask for (14 % of a dynamic mission's moving commands,
-#: docs/gait.md "Command tracking"). Trotting at such commands the policy drifts instead; the tracking
+#: docs/gait.md "Walking slow commands, and command tracking"). Trotting at such commands the policy drifts instead; the tracking
 #: correction (:class:`CommandTracking`) takes the drift out.
 WALKING_DEADBAND = 0.005
 #: Command tracking (:class:`CommandTracking`): integral gain (1/s) on the velocity error, the time constant
@@ -476,7 +476,7 @@ class StanceHold:
     """Per robot of a batch: the share of the residual policy's action that is applied (0 to 1).
 
     The share falls to 0 over :data:`STANCE_FADE_S` while a robot is idle (its ramped command inside the
-    prior's deadband and no near-fall recovery under way) and rises back to 1 over the same time once it is
+    controller's walking deadband and no near-fall recovery under way) and rises back to 1 over the same time once it is
     not, so a robot told to stop stands on the trot prior's standing pose instead of the policy's sway.
     A recovering robot keeps the full residual: balancing a tilt is what the policy is for.
 
@@ -505,14 +505,15 @@ class CommandTracking:
 
     The residual policy does not walk exactly what it is told: on flat ground, asked for small commands, it
     walks about 0.04 m/s forward and turns about 0.1 rad/s right of them, so a turn asked at 0.2 rad/s
-    realises 0.08 and one at -0.2 realises -0.3 (docs/gait.md, "Command tracking"). The correction integrates
+    realises 0.08 and one at -0.2 realises -0.3 (docs/gait.md, "Walking slow commands, and command
+    tracking"). The correction integrates
     the error between the ramped command and the measured body velocity (low-passed over
     :data:`TRACKING_FILTER_S`) at :data:`TRACKING_GAIN_PER_S`, clipped to :data:`TRACKING_LIMIT`. It
     integrates only while the robot walks and is held, not cleared, while it stands: the drift belongs to the
     gait, so the next walk starts corrected.
 
-    Example: asked for a 0.2 rad/s turn in place, the robot turns at 0.08 rad/s at first; over about two
-    seconds the correction climbs to +0.12 rad/s and the body turns at 0.2.
+    Example: asked for a 0.2 rad/s turn in place, the robot turns at 0.08 rad/s at first; within a few
+    seconds the correction has climbed to about +0.12 rad/s and the body turns at 0.2.
 
     Args:
         count: robots in the batch.
