@@ -46,7 +46,7 @@ def main() -> int:
     args = parser.parse_args()
     policy = load_policy()
     if args.as_trained:
-        gait_bench.WALKING_DEADBAND = policy.config.trot.command_deadband  # type: ignore[attr-defined]
+        gait_bench.WALKING_DEADBAND = policy.config.trot.command_deadband
         gait_bench.CommandTracking = _NoTracking  # type: ignore[misc]
     commands = np.array([(v, 0.0, w) for v, w in COMMANDS])
     env = gait_bench._nominal_env(len(commands), trot_policy=policy, seed=0)
