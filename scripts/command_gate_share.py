@@ -1,8 +1,10 @@
 """How many of a mission's commanded twists the gait's trot prior stands still for.
 
-The dynamic fidelity's gait (``robots.gait_policy.TrotPrior``) gates its trot by the command's size: below
+The trained trot prior (``robots.gait_policy.TrotPrior``) gates its trot by the command's size: below
 ``TrotConfig.command_deadband`` it stands, above twice that it trots in full. The kinematic base moves at
-any command. Reads a tick record (``semexp-bt run ... --record FILE``), holds the last ``/cmd_twist``
+any command. Since session 26 the run-time controller gates at ``WALKING_DEADBAND`` instead (ten times
+lower) and corrects the policy's drift (docs/gait.md), so this script tells what the gait as trained would
+have stood through, the measure that led to that change. Reads a tick record (``semexp-bt run ... --record FILE``), holds the last ``/cmd_twist``
 written at each tick, and prints how many ticks carried a zero command, a non-zero one the prior stands
 for (gate 0), a partial and a full trot, and which behaviours wrote the commands it stands for.
 
