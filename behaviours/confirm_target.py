@@ -61,8 +61,8 @@ Success also needs the mean of the voting positions to lie within ``confirm_radi
 radius r_s) less ``declare_margin_m``: one view's depth is noisy by a decimetre or more, so a robot
 standing 0.9 m from the target would lose single votes at a hard 1.0 m gate, while the mean of four views
 says whether the target is within r_s to a few centimetres; the margin covers those (a dynamic run
-declared with the mean 0.96 m away and the object 1.002 m away in truth). The candidate need not be the view's winner
-t*: an unexplored direction may outscore the object in Eq. 2 (it is where to look next), yet the object
+declared with the mean 0.96 m away and the object 1.002 m away in truth). The candidate need not be the
+view's winner t*: an unexplored direction may outscore the object in Eq. 2 (it is where to look next), yet the object
 is still seen here.
 
 A k-of-n vote rather than k views in a row: each emulated (or real) view misses a present object now and
@@ -263,10 +263,10 @@ class ConfirmTarget(SemExpBehaviour):
 
     def __init__(self, name: str, **kwargs: Any) -> None:
         super().__init__(name, **kwargs)
-        if self.approach_to_m >= self.confirm_radius_m - self.declare_margin_m:
+        if self.approach_to_m >= self._declare_within_m:
             raise ValueError(
                 f"{name}: approach_to_m ({self.approach_to_m}) must be less than confirm_radius_m "
-                f"- declare_margin_m ({self.confirm_radius_m - self.declare_margin_m})"
+                f"- declare_margin_m ({self._declare_within_m})"
             )
         if self.view_from_m > 0.0 and not (
             self.approach_to_m < self.view_from_m <= self.confirm_radius_m + self.vote_slack_m
@@ -497,6 +497,11 @@ class ConfirmTarget(SemExpBehaviour):
         """Count the further views afresh (the first vote stays the reference)."""
         self._vote_points, self._views, self._boxed = self._vote_points[:1], 0, self._first_boxed
 
+    @property
+    def _declare_within_m(self) -> float:
+        """How close the votes' mean must be to declare: r_s less the margin, m."""
+        return self.confirm_radius_m - self.declare_margin_m
+
     def _distance_to(self, point: np.ndarray) -> float:
         """The base's distance to ``point`` in the ground plane, m."""
         pose = self.services.robot.base_pose()
@@ -559,7 +564,7 @@ class ConfirmTarget(SemExpBehaviour):
         pose = self.services.robot.base_pose()
         point = np.mean(self._vote_points, axis=0)
         reach = self._distance_to(point)
-        if reach > self.confirm_radius_m - self.declare_margin_m:
+        if reach > self._declare_within_m:
             return self._reject(f"{label!r} has the votes, but its mean position is {reach:.2f} m away")
         if not self._boxed:
             return self._reject(f"{label!r} has the votes, but the detector boxed it in none of them")

@@ -540,6 +540,23 @@ class CommandTracking:
         return np.where(walking[:, None], told, command)
 
 
+def walking_command(
+    prior: TrotPrior,
+    tracking: CommandTracking,
+    ramped: FloatArray,
+    measured: FloatArray,
+    recovering: npt.NDArray[np.bool_],
+) -> tuple[FloatArray, FloatArray]:
+    """The run-time controller's walking rule for a batch: ``(command, gate)``.
+
+    ``gate`` ``(N,)`` is each ramped command's trot gate at :data:`WALKING_DEADBAND`; ``command`` ``(N, 3)`` is
+    what the policy and the prior are told, ``tracking``'s correction added while the robot walks (gated in
+    and not ``recovering``). :class:`GaitController` and the gait benchmark's loop both call it.
+    """
+    gate = prior.gate(ramped, WALKING_DEADBAND)
+    return tracking.update(ramped, measured, (gate > 0.0) & ~recovering), gate
+
+
 class GaitController:
     """Runs a gait on a :class:`~robots.interface.Robot` every tick: ``controller(robot, twist)``.
 
@@ -601,11 +618,11 @@ class GaitController:
         if recovering[0]:
             requested = np.zeros(3)
         self.command = ramp_command(self.command, requested, self.control_dt_s)
-        gate = self.policy.prior.gate(self.command[None, :], WALKING_DEADBAND)
-        walking = (gate > 0.0) & ~recovering
         body = robot.base_twist()
         measured = np.array([[body.linear_x_mps, body.linear_y_mps, body.angular_z_radps]])
-        command = self.tracking.update(self.command[None, :], measured, walking)
+        command, gate = walking_command(
+            self.policy.prior, self.tracking, self.command[None, :], measured, recovering
+        )
         obs = build_observation(
             command=command,
             gyro_radps=np.asarray(imu.angular_velocity_radps, dtype=float)[None, :],

@@ -4,9 +4,11 @@ The trained trot prior (``robots.gait_policy.TrotPrior``) gates its trot by the 
 ``TrotConfig.command_deadband`` it stands, above twice that it trots in full. The kinematic base moves at
 any command. Since session 26 the run-time controller gates at ``WALKING_DEADBAND`` instead (ten times
 lower) and corrects the policy's drift (docs/gait.md), so this script tells what the gait as trained would
-have stood through, the measure that led to that change. Reads a tick record (``semexp-bt run ... --record FILE``), holds the last ``/cmd_twist``
-written at each tick, and prints how many ticks carried a zero command, a non-zero one the prior stands
-for (gate 0), a partial and a full trot, and which behaviours wrote the commands it stands for.
+have stood through, the measure that led to that change.
+
+Reads a tick record (``semexp-bt run ... --record FILE``), holds the last ``/cmd_twist`` written at each
+tick, and prints how many ticks carried a zero command, a non-zero one the prior stands for (gate 0), a
+partial and a full trot, and which behaviours wrote the commands it stands for.
 
 Usage:
     MUJOCO_GL=egl .venv/bin/semexp-bt run trees/object_search.yaml --scene road --seed 3 \\

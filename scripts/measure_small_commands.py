@@ -17,9 +17,10 @@ import argparse
 import math
 
 import numpy as np
+import numpy.typing as npt
 
 import sims.gait_bench as gait_bench
-from robots.gait_policy import CONTROL_DT_S, CommandTracking, load_policy
+from robots.gait_policy import CONTROL_DT_S, CommandTracking, TrotPrior, load_policy
 from semexp_bt.core.types import FloatArray
 from sims.gait_env import GaitEnv, _yaw_of
 
@@ -31,11 +32,15 @@ COMMANDS = (
 )
 
 
-class _NoTracking(CommandTracking):
-    """Passes the command through unchanged (the controller before command tracking)."""
-
-    def update(self, command: FloatArray, measured: FloatArray, walking: np.ndarray) -> FloatArray:
-        return np.asarray(command, dtype=float)
+def _as_trained(
+    prior: TrotPrior,
+    tracking: CommandTracking,
+    ramped: FloatArray,
+    measured: FloatArray,
+    recovering: npt.NDArray[np.bool_],
+) -> tuple[FloatArray, FloatArray]:
+    """The controller's walking rule before command tracking: the trained prior's gate, no correction."""
+    return np.asarray(ramped, dtype=float), prior.gate(ramped)
 
 
 def main() -> int:
@@ -46,8 +51,7 @@ def main() -> int:
     args = parser.parse_args()
     policy = load_policy()
     if args.as_trained:
-        gait_bench.WALKING_DEADBAND = policy.config.trot.command_deadband
-        gait_bench.CommandTracking = _NoTracking  # type: ignore[misc]
+        gait_bench.walking_command = _as_trained
     commands = np.array([(v, 0.0, w) for v, w in COMMANDS])
     env = gait_bench._nominal_env(len(commands), trot_policy=policy, seed=0)
     settle = int(round(args.settle_s / CONTROL_DT_S))

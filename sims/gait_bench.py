@@ -34,13 +34,13 @@ from robots.gait_policy import (
     COMMAND_LOW,
     CONTROL_DT_S,
     OBS_DIM,
-    WALKING_DEADBAND,
     CommandTracking,
     GaitPolicy,
     NearFallRecovery,
     StanceHold,
     load_policy,
     ramp_command,
+    walking_command,
 )
 from semexp_bt.core import durable
 from semexp_bt.core.types import FloatArray
@@ -203,10 +203,8 @@ def _run(
             holding = near_fall.update(env.gravity_body) if recovery else np.zeros(env.num_envs, dtype=bool)
             asked = np.where(holding[:, None], 0.0, requested)
             ramped = ramp_command(ramped, asked)
-            gate = policy.prior.gate(ramped, WALKING_DEADBAND)
-            walking = (gate > 0.0) & ~holding
             measured = np.concatenate([env.base_lin_vel_body[:, :2], env.base_ang_vel_body[:, 2:]], axis=1)
-            env.commands[:] = tracking.update(ramped, measured, walking)
+            env.commands[:], gate = walking_command(policy.prior, tracking, ramped, measured, holding)
             share = stance.update((gate <= 0.0) & ~holding)
             obs = env.observe(noisy=False)
         elif on_step is not None:
