@@ -1,20 +1,25 @@
 """The world process (``semexp_bt/app/viewer/world_process.py``): the view's Rerun logger in a child.
 
 These run in the default suite, without Rerun: they check that the child's failures come back as clear
-errors rather than hangs, and that the child never outlives the mission's process. That it logs a whole
+errors rather than hangs, that a child that pauses costs the sender no wait (up to the outbox's bound),
+and that the child never outlives the mission's process. That it logs a whole
 mission to a recording Rerun reads back is tests/test_viewer_world.py (the ``viewer`` marker).
 """
 
 from __future__ import annotations
 
+import signal
+import threading
 import time
 from pathlib import Path
 
 import pytest
 
+from semexp_bt.app.viewer import world_process
 from semexp_bt.app.viewer.frames import WorldFrame
 from semexp_bt.app.viewer.world_process import WorldProcess, WorldProcessError
 from semexp_bt.core.config import DecisionConfig
+from semexp_bt.core.types import Pose2D, Twist
 
 #: Generous wall-time bound for the child to start or end (s); a hang fails the test instead.
 CHILD_WAIT_S = 60.0
@@ -88,3 +93,101 @@ def test_a_view_that_never_started_ends_its_world_process_on_close(tmp_path: Pat
     exit_code = child._process.wait(timeout=CHILD_WAIT_S)
     print("exit code", exit_code)
     assert exit_code == 0
+
+
+def _frames_of(size_bytes: int, count: int, first_tick: int = 1) -> list[WorldFrame]:
+    """``count`` frames that pickle to about ``size_bytes`` each (an event carries the padding: one string
+    per frame, since pickle writes a string it has seen in the same message once)."""
+    return [
+        WorldFrame(tick=tick, stamp_s=0.02 * tick, events=({"padding": f"{tick:x}".rjust(size_bytes, "x")},))
+        for tick in range(first_tick, first_tick + count)
+    ]
+
+
+def test_a_paused_child_costs_the_sender_no_wait(tmp_path: Path) -> None:
+    world = WorldProcess.spawn()
+    try:
+        world._process.send_signal(signal.SIGSTOP)  # a child that reads nothing for a while
+        # 8 MB in batches of 1 MB: forty times what a socket holds, so a send to the socket would block.
+        done = threading.Event()
+
+        def send_batches() -> None:
+            for batch in range(8):
+                for frame in _frames_of(100_000, 10, first_tick=10 * batch + 1):
+                    world.log(frame)
+                world.flush()
+            done.set()
+
+        sender = threading.Thread(target=send_batches)
+        sender.start()
+        finished_while_paused = done.wait(timeout=CHILD_WAIT_S)
+        print("outbox after the batches:", len(world._outbox), "messages,", world._outbox_bytes, "bytes")
+        assert finished_while_paused and world._process.poll() is None
+        assert world._outbox_bytes > 4_000_000  # the batches wait in the outbox, not in the caller
+        world._process.send_signal(signal.SIGCONT)
+        sender.join()
+    finally:
+        world._process.send_signal(signal.SIGCONT)
+        world.disconnect()
+    assert world._process.poll() is not None
+
+
+def test_a_child_that_never_resumes_is_given_up_once_the_outbox_is_full(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    monkeypatch.setattr(world_process, "BACKLOG_BYTES", 2_000_000)
+    monkeypatch.setattr(world_process, "SEND_TIMEOUT_S", 1.0)
+    world = WorldProcess.spawn()
+    try:
+        world._process.send_signal(signal.SIGSTOP)
+        with pytest.raises(WorldProcessError, match="took no message for 1 s") as raised:
+            for batch in range(100):  # 100 MB, fifty times the outbox: the limit is met long before
+                for frame in _frames_of(100_000, 10, first_tick=10 * batch + 1):
+                    world.log(frame)
+                world.flush()
+        print(raised.value)
+        assert world._process.wait(timeout=CHILD_WAIT_S) != 0  # killed
+        with pytest.raises(WorldProcessError):
+            world.flush()
+    finally:
+        world.disconnect()
+
+
+@pytest.mark.viewer
+def test_frames_sent_while_the_child_was_paused_all_reach_the_recording(tmp_path: Path) -> None:
+    from tests.viewer_support import timed_rows
+
+    world = WorldProcess.spawn()
+    world_file = tmp_path / "world.rrd"
+    try:
+        world.open(
+            recording_id="paused",
+            decision_config=DecisionConfig(),
+            file_path=world_file,
+            grpc_port=None,
+            cors_origin=None,
+        )
+        world._process.send_signal(signal.SIGSTOP)
+        ticks = range(1, 3001)  # about 1 MB pickled: five times what the socket holds
+        for tick in ticks:
+            world.log(
+                WorldFrame(
+                    tick=tick,
+                    stamp_s=0.02 * tick,
+                    pose=Pose2D(0.01 * tick, 0.0, 0.0),
+                    base_twist=Twist(linear_x_mps=0.5),
+                    command=Twist(linear_x_mps=0.5),
+                )
+            )
+            if tick % 100 == 0:
+                world.flush()
+        print("outbox while paused:", world._outbox_bytes, "bytes")
+        assert world._outbox_bytes > 0 and world._process.poll() is None
+        world._process.send_signal(signal.SIGCONT)
+        world.close()
+    finally:
+        world._process.send_signal(signal.SIGCONT)
+        world.disconnect()
+    logged = timed_rows(world_file)
+    print({entity: len(rows) for entity, rows in logged.items()})
+    assert logged["robot/base_twist"] == list(ticks)

@@ -14,6 +14,13 @@ and torch's threads) when the observer is made, so its interpreter start and imp
 mission's set-up. The live view does not use it: with Rerun's gRPC server in the child the mission paid
 more, not less (docs/viewer.md, session 23).
 
+A child that stops reading for a while (its Rerun import on a cold disk, a core taken by other work, a
+debugger) must not cost the saved recording frames: each message is pickled on the caller's thread into
+an outbox, and a sender thread of its own writes the outbox to the socket, so the observer's worker keeps
+draining its frame queue while the child catches up. The outbox holds at most :data:`BACKLOG_BYTES`; only
+past that does the worker wait, its queue fill, and frames drop (docs/viewer.md, session 27: a child
+stopped for 15 s of the README's mission cost 413 of 951 frames before the outbox, none after).
+
 The child ends when it is told to, or when the mission's process is gone (its end of the pipe closes).
 An error in the child is reported back: at once if the logger could not be made (the next ``log`` or
 ``flush`` raises it), per frame otherwise (``close`` raises them, and the observer counts them as worker
@@ -28,6 +35,7 @@ Example:
 
 from __future__ import annotations
 
+import collections
 import contextlib
 import multiprocessing.connection
 import os
@@ -37,6 +45,7 @@ import struct
 import subprocess
 import sys
 import threading
+from multiprocessing.reduction import ForkingPickler
 from pathlib import Path
 from typing import Any
 
@@ -48,9 +57,14 @@ from semexp_bt.core.config import DecisionConfig
 REPLY_TIMEOUT_S = 120.0
 #: How long ``disconnect`` waits for the child to end before it is killed (wall seconds).
 EXIT_TIMEOUT_S = 10.0
-#: How long one message to the child may wait for room in the socket (wall seconds): past it the child
-#: counts as stuck, is killed, and the view reports it; the mission never waits longer.
+#: How long one message to the child may wait for room in the socket, or in a full outbox (wall
+#: seconds): past it the child counts as stuck, is killed, and the view reports it; the mission never
+#: waits longer.
 SEND_TIMEOUT_S = 60.0
+#: Pickled messages the child has not taken yet, at most this many bytes. A whole 600 s mission's frames
+#: (its camera images included) are well under it, so a child that pauses and resumes loses nothing;
+#: a child that has stopped for good costs this much memory before frames drop.
+BACKLOG_BYTES = 256 * 1024 * 1024
 #: At most this many of the child's per-frame errors travel back.
 MAX_ERRORS = 10
 #: The child's scheduling priority below the mission's (``nice``): on two cores its Rerun threads would
@@ -72,9 +86,19 @@ class WorldProcess:
         self._process = process
         self._pending: list[WorldFrame] = []
         self._failed: str | None = None
-        # The worker thread sends batches; ``finish`` sends "close" on the mission's thread, possibly while
-        # a worker that timed out still sends: one message at a time, or the child reads a torn one.
-        self._send_lock = threading.Lock()
+        # Pickled messages in the order they were sent, and their bytes (the one being written included).
+        # The worker thread sends batches and ``finish`` sends "close" on the mission's thread: both
+        # append here, and only the sender thread writes to the socket, so the child never reads a torn
+        # message.
+        self._outbox: collections.deque[memoryview] = collections.deque()
+        self._outbox_bytes = 0
+        self._outbox_changed = threading.Condition()
+        # Set when nothing more can or should be written to the child: the socket failed, the child was
+        # given up, or ``disconnect`` has ended it. (A child that reports a failure is still written to:
+        # it must hear "disconnect".)
+        self._link_down = False
+        self._sender = threading.Thread(target=self._send_outbox, name="semexp-view-send", daemon=True)
+        self._sender.start()
         self.grpc_url: str | None = None
 
     @classmethod
@@ -164,18 +188,65 @@ class WorldProcess:
         except subprocess.TimeoutExpired:
             self._process.kill()
             self._process.wait(timeout=EXIT_TIMEOUT_S)
+        with self._outbox_changed:
+            self._link_down = True
+            self._outbox_changed.notify_all()
+        self._sender.join(timeout=EXIT_TIMEOUT_S)
         self._conn.close()
 
     def _send(self, message: tuple[str, Any]) -> None:
+        """Pickle ``message`` into the outbox; wait (at most :data:`SEND_TIMEOUT_S`) only while the
+        outbox holds :data:`BACKLOG_BYTES` already."""
         if self._failed is not None and message[0] != "disconnect":
             raise WorldProcessError(self._failed)
-        with self._send_lock:
+        payload = ForkingPickler.dumps(message)
+        with self._outbox_changed:
+            room = self._outbox_changed.wait_for(
+                lambda: (
+                    self._link_down or not self._outbox or self._outbox_bytes + len(payload) <= BACKLOG_BYTES
+                ),
+                timeout=SEND_TIMEOUT_S,
+            )
+            if self._link_down:
+                if message[0] == "disconnect":
+                    return
+                raise WorldProcessError(self._failed or "the world process was disconnected")
+            if not room:
+                self._fail(
+                    f"the world process took no message for {SEND_TIMEOUT_S:.0f} s "
+                    f"({self._outbox_bytes / 1e6:.0f} MB waiting)"
+                )
+                raise WorldProcessError(str(self._failed))
+            self._outbox.append(payload)
+            self._outbox_bytes += len(payload)
+            self._outbox_changed.notify_all()
+
+    def _send_outbox(self) -> None:
+        """The sender thread: write the outbox to the child in order, until it fails or is disconnected."""
+        while True:
+            with self._outbox_changed:
+                self._outbox_changed.wait_for(lambda: self._link_down or bool(self._outbox))
+                if self._link_down:
+                    return
+                payload = self._outbox[0]
             try:
-                self._conn.send(message)
+                self._conn.send_bytes(payload)
             except OSError as exc:  # gone, or stuck past SEND_TIMEOUT_S (the stream may be torn: end it)
-                self._failed = f"the world process stopped taking frames ({type(exc).__name__}: {exc})"
-                self._process.kill()
-                raise WorldProcessError(self._failed) from exc
+                with self._outbox_changed:
+                    self._fail(f"the world process stopped taking frames ({type(exc).__name__}: {exc})")
+                return
+            with self._outbox_changed:
+                self._outbox.popleft()
+                self._outbox_bytes -= len(payload)
+                self._outbox_changed.notify_all()
+
+    def _fail(self, reason: str) -> None:
+        """Record why the child is given up, kill it, and wake every waiter (hold ``_outbox_changed``)."""
+        if self._failed is None:
+            self._failed = reason
+        self._link_down = True
+        self._process.kill()
+        self._outbox_changed.notify_all()
 
     def _reply(self, doing: str) -> Any:
         """The value of the child's next reply.
