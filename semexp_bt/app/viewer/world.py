@@ -38,15 +38,19 @@ import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
 
-from semexp_bt.app.viewer.frames import MemoryFrame, ModelAnswer, WorldFrame
-from semexp_bt.app.viewer.maps import MapLayer
 from semexp_bt.core.config import DecisionConfig
 from semexp_bt.core.types import Observation, Pose2D, Subgoal, Twist
+
+if TYPE_CHECKING:
+    # Types only: the saved view's world process makes its logger before it has unpickled a frame, and
+    # these modules bring the navigation stack and the tree's registry (0.6 s of imports) with them.
+    from semexp_bt.app.viewer.frames import MemoryFrame, ModelAnswer, WorldFrame
+    from semexp_bt.app.viewer.maps import MapLayer
 
 #: Rerun application id of every semexp-bt recording.
 APPLICATION_ID = "semexp_bt"

@@ -47,10 +47,13 @@ import sys
 import threading
 from multiprocessing.reduction import ForkingPickler
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from semexp_bt.app.viewer.frames import WorldFrame
-from semexp_bt.core.config import DecisionConfig
+if TYPE_CHECKING:
+    # Types only: the child imports this module first and must answer ``open`` soon; the frames' modules
+    # (the navigation stack, the tree's registry) load when the first batch is unpickled.
+    from semexp_bt.app.viewer.frames import WorldFrame
+    from semexp_bt.core.config import DecisionConfig
 
 #: How long ``open`` waits for the child's logger in live mode, and ``close`` for the recording to be
 #: complete (wall seconds).
