@@ -119,6 +119,10 @@ def _in_view(point_m: tuple[float, float, float], observation: Observation) -> b
     return 0.0 <= u < k.width_px and 0.0 <= v < k.height_px
 
 
+#: Why a confirmation was refused, as its ``confirmation_rejected`` event's ``cause`` says (the benchmark
+#: rows count them, ``semexp_bt.bench.rows``): too few further views voted; the votes' mean lay beyond
+#: the declaration distance; no vote carried a detector box; the names heard at the spot disagreed.
+REFUSAL_CAUSES = ("too_few_views", "mean_beyond_radius", "no_detector_box", "label_agreement")
 #: The step up stops before this margin beyond ``approach_to_m`` (it creeps no closer).
 _APPROACH_SLACK_M = 0.05
 #: The base backs away for the views from afar only when the first vote is this much nearer than
@@ -385,7 +389,9 @@ class ConfirmTarget(SemExpBehaviour):
         ]
         return sum(near), len(near)
 
-    def _reject(self, why: str) -> py_trees.common.Status:
+    def _reject(self, why: str, cause: str | None = None) -> py_trees.common.Status:
+        """Fail with ``why`` as feedback; once a label had a first vote, log the refusal with its ``cause``
+        (one of :data:`REFUSAL_CAUSES`)."""
         memory = self.read("memory")
         observation = self.read("observation")
         pose = self.services.robot.base_pose()
@@ -404,7 +410,7 @@ class ConfirmTarget(SemExpBehaviour):
                 memory.scale_potential(node_id=node_id, factor=self.reject_potential_factor)
         self.feedback_message = why
         if self._label is not None:
-            self.services.log_event("confirmation_rejected", reason=why)
+            self.services.log_event("confirmation_rejected", reason=why, cause=cause)
         return py_trees.common.Status.FAILURE
 
     def update(self) -> py_trees.common.Status:
@@ -486,7 +492,8 @@ class ConfirmTarget(SemExpBehaviour):
                 self._start_moving()
                 return py_trees.common.Status.RUNNING
             return self._reject(
-                f"only {self._votes} of {self._views} further views confirmed {self._label!r}"
+                f"only {self._votes} of {self._views} further views confirmed {self._label!r}",
+                "too_few_views",
             )
         return py_trees.common.Status.RUNNING
 
@@ -565,13 +572,18 @@ class ConfirmTarget(SemExpBehaviour):
         point = np.mean(self._vote_points, axis=0)
         reach = self._distance_to(point)
         if reach > self._declare_within_m:
-            return self._reject(f"{label!r} has the votes, but its mean position is {reach:.2f} m away")
+            return self._reject(
+                f"{label!r} has the votes, but its mean position is {reach:.2f} m away", "mean_beyond_radius"
+            )
         if not self._boxed:
-            return self._reject(f"{label!r} has the votes, but the detector boxed it in none of them")
+            return self._reject(
+                f"{label!r} has the votes, but the detector boxed it in none of them", "no_detector_box"
+            )
         agreeing, heard = self._label_agreement(point)
         if heard and agreeing < self.min_label_agreement * heard:
             return self._reject(
-                f"{label!r} has the votes, but only {agreeing} of {heard} names heard at its spot name it"
+                f"{label!r} has the votes, but only {agreeing} of {heard} names heard at its spot name it",
+                "label_agreement",
             )
         found = list(self.read("found_objects", []))
         found.append(

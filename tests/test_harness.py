@@ -191,7 +191,23 @@ def test_flatten_drops_candidate_lists_but_keeps_the_ids_gnsa_needs() -> None:
     assert [d["n_candidates"] for d in row["decisions"]] == [2, 2, 0]
     assert all("candidates" not in d for d in row["decisions"])
     assert row["event_counts"] == {"confirm": 1, "recovery": 2}
+    assert row["refusal_causes"] == {}
     assert "events" not in row and "found_objects" not in row
+
+
+def test_flatten_counts_refused_confirmations_by_cause() -> None:
+    record = fake_record(spec(trajectories_per_cell=0).tasks()[0])
+    record["events"] = [
+        {"kind": "confirmation_rejected", "reason": "only 1 of 3 ...", "cause": "too_few_views"},
+        {"kind": "confirmation_rejected", "reason": "only 0 of 2 ...", "cause": "too_few_views"},
+        {"kind": "confirmation_rejected", "reason": "... names heard ...", "cause": "label_agreement"},
+        {"kind": "confirmation_rejected", "reason": "a record from before causes"},
+        {"kind": "target_sighted"},
+    ]
+    row = flatten_record(record)
+    print(row["event_counts"], row["refusal_causes"])
+    assert row["event_counts"] == {"confirmation_rejected": 4, "target_sighted": 1}
+    assert row["refusal_causes"] == {"too_few_views": 2, "label_agreement": 1, "unknown": 1}
 
 
 def test_to_episode_record_keeps_the_distance_and_the_gnsa_steps() -> None:

@@ -12,6 +12,7 @@ from semexp_bt.bench.markdown import (
     cell_text,
     metric_table,
     outcome_table,
+    refusal_cause_table,
     success_path_table,
     success_time_table,
 )
@@ -25,6 +26,7 @@ from semexp_bt.bench.stats import (
     latency_table,
     matched_rows,
     outcomes_and_safety,
+    refusal_causes,
     success_paths,
     success_times,
     summarize_rows,
@@ -194,6 +196,28 @@ def test_success_paths_compare_the_successes_with_and_without_a_refused_confirma
     print(table)
     assert table.splitlines()[2] == "| Ours | 3 | 1.25 (1.12-1.62) | 1 | 1.25 | 1.50 |"
     assert table.splitlines()[3].endswith("| 1 | 3.00 (3.00-3.00) | 0 | - | 3.00 |")
+
+
+def test_refusal_causes_count_events_episodes_and_the_successes_among_them() -> None:
+    rows = office_ours()  # seeds 0-2 succeed, seed 3 does not
+    rows[0]["refusal_causes"] = {"too_few_views": 2}
+    rows[1]["refusal_causes"] = {"too_few_views": 1, "label_agreement": 3}
+    rows[3]["refusal_causes"] = {"label_agreement": 40}
+    cells = refusal_causes(rows)
+    print(cells)
+    assert cells == {
+        "ours": {
+            "too_few_views": {"refusals": 3, "episodes": 2, "successes": 2},
+            "label_agreement": {"refusals": 43, "episodes": 2, "successes": 1},
+        }
+    }
+    table = refusal_cause_table(cells, strategies=["ours", "vlm_only"])
+    print(table)
+    assert table.splitlines()[2:] == [
+        "| Ours | label_agreement | 43 | 2 | 1 |",
+        "| Ours | too_few_views | 3 | 2 | 2 |",
+    ]
+    assert "no refusal recorded" in refusal_cause_table({}, strategies=["ours"])
 
 
 def test_success_times_are_the_median_simulated_time_of_the_successes_only() -> None:

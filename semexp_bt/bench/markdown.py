@@ -124,6 +124,25 @@ def success_path_table(cells: Mapping[str, Mapping[str, Any]], *, strategies: Se
     return "\n".join(lines)
 
 
+def refusal_cause_table(
+    cells: Mapping[str, Mapping[str, Mapping[str, int]]], *, strategies: Sequence[str]
+) -> str:
+    """Markdown of :func:`~semexp_bt.bench.stats.refusal_causes`: one row per strategy and cause."""
+    lines = [
+        "| strategy | cause | refusals | episodes with one | of them successful |",
+        "| --- | --- | --- | --- | --- |",
+    ]
+    for strategy in strategies:
+        for cause, cell in sorted(cells.get(strategy, {}).items()):
+            lines.append(
+                f"| {STRATEGY_TITLES.get(strategy, strategy)} | {cause} | {cell['refusals']} | {cell['episodes']}"
+                f" | {cell['successes']} |"
+            )
+    if len(lines) == 2:
+        lines.append("| - | no refusal recorded (rows before session 27 do not record causes) | | | |")
+    return "\n".join(lines)
+
+
 def latency_markdown(
     table: Sequence[Mapping[str, Any]], *, paper: Mapping[str, tuple[str, str, str]] | None = None
 ) -> str:

@@ -18,6 +18,7 @@ from semexp_bt.bench.markdown import (
     latency_markdown,
     metric_table,
     outcome_table,
+    refusal_cause_table,
     status_table,
     success_path_table,
     success_time_table,
@@ -32,6 +33,7 @@ from semexp_bt.bench.stats import (
     latency_table,
     ok_rows,
     outcomes_and_safety,
+    refusal_causes,
     success_paths,
     success_times,
     throughput_by_fidelity,
@@ -104,6 +106,14 @@ def write_report(
         " successes that had a confirmation refused on the way compare with the others.",
         "",
         success_path_table(success_paths(rows), strategies=strategies),
+        "",
+        "## Refused confirmations by cause",
+        "",
+        "Why `ConfirmTarget` refused (the `cause` of its `confirmation_rejected` events): too few further"
+        " views voted, the votes' mean lay beyond the declaration distance, no vote had a detector box, or the"
+        " names heard at the spot disagreed.",
+        "",
+        refusal_cause_table(refusal_causes(rows), strategies=strategies),
     ]
     parts += [
         "",

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from semexp_bt.bench.rows import STATUS_OK, to_episode_record
+from semexp_bt.bench.rows import CONFIRMATION_REJECTED, STATUS_OK, to_episode_record
 from semexp_bt.core import metrics
 
 #: Pseudo-scene of the pooled column.
@@ -80,10 +80,6 @@ def success_times(rows: Sequence[Mapping[str, Any]]) -> dict[tuple[str, str], di
     return {cell: {"median_s": float(np.median(times)), "n": len(times)} for cell, times in groups.items()}
 
 
-#: The event a refused confirmation leaves in an episode record (``ConfirmTarget``).
-CONFIRMATION_REJECTED = "confirmation_rejected"
-
-
 def success_paths(rows: Sequence[Mapping[str, Any]]) -> dict[str, dict[str, Any]]:
     """Strategy -> how long the successful episodes' paths were against the geodesic optimum, the part of
     SPL that is lost on the way: ``successes``, ``ratio`` (median, first and third quartile of path / L*),
@@ -113,6 +109,29 @@ def success_paths(rows: Sequence[Mapping[str, Any]]) -> dict[str, dict[str, Any]
             "ratio_rejected": median([r for r, rejected in pairs if rejected]),
             "ratio_clean": median([r for r, rejected in pairs if not rejected]),
         }
+    return out
+
+
+def refusal_causes(rows: Sequence[Mapping[str, Any]]) -> dict[str, dict[str, dict[str, int]]]:
+    """Strategy -> cause -> how often a confirmation was refused for it: ``refusals`` (events),
+    ``episodes`` (with at least one) and ``successes`` (of those episodes, the successful ones; success
+    is SR's). Rows without ``refusal_causes`` (written before session 27) are left out."""
+    out: dict[str, dict[str, dict[str, int]]] = {}
+    for row in ok_rows(rows):
+        causes = row.get("refusal_causes")
+        if not causes:
+            continue
+        radius = float(row.get("success_radius_m", metrics.DEFAULT_SUCCESS_RADIUS_M))
+        succeeded = row.get("sim_time_s") is not None and metrics.success(
+            to_episode_record(row), success_radius_m=radius
+        )
+        for cause, count in causes.items():
+            cell = out.setdefault(row["strategy"], {}).setdefault(
+                cause, {"refusals": 0, "episodes": 0, "successes": 0}
+            )
+            cell["refusals"] += int(count)
+            cell["episodes"] += 1
+            cell["successes"] += int(succeeded)
     return out
 
 

@@ -56,7 +56,9 @@ def test_too_few_votes_fail_as_soon_as_three_cannot_be_reached(make_rig: Callabl
     assert compact(statuses) == ["RUNNING", "FAILURE"]
     assert len(rig.perception.requests) == 2  # after two misses, two views cannot give three votes
     assert rig.get("found_objects") == []
-    assert [e["kind"] for e in rig.services.events] == ["confirmation_rejected"]
+    assert [(e["kind"], e["cause"]) for e in rig.services.events] == [
+        ("confirmation_rejected", "too_few_views")
+    ]
 
 
 def test_a_first_view_that_does_not_vote_fails_at_once_and_lowers_the_node_in_view(
@@ -164,6 +166,7 @@ def test_a_target_on_the_rim_of_the_success_radius_is_not_declared(
     if expected == Status.FAILURE:
         assert "mean position is 0.97 m away" in confirm.feedback_message
         assert rig.get("found_objects") in (None, [])
+        assert [e.get("cause") for e in rig.services.events] == ["mean_beyond_radius"]
 
 
 FAR = Post(1, 1.3, 0.0, vlm_label="fire extinguisher", detector_label="fire extinguisher")
@@ -342,6 +345,7 @@ def test_the_vlm_alone_does_not_confirm(make_rig: Callable[..., Rig]) -> None:
     assert compact(statuses) == ["RUNNING", "FAILURE"]
     assert confirm.feedback_message.endswith("the detector boxed it in none of them")
     assert rig.get("found_objects") == []
+    assert [e.get("cause") for e in rig.services.events] == ["no_detector_box"]
 
 
 def test_boxes_the_detector_labels_with_the_prompt_do_not_outvote_what_the_vlm_calls_the_object(
@@ -363,3 +367,4 @@ def test_boxes_the_detector_labels_with_the_prompt_do_not_outvote_what_the_vlm_c
     assert compact(statuses) == ["RUNNING", "FAILURE"]
     assert "names heard at its spot name it" in confirm.feedback_message
     assert rig.get("found_objects") == []
+    assert [e.get("cause") for e in rig.services.events] == ["label_agreement"]
