@@ -227,6 +227,15 @@ class ConfirmTarget(SemExpBehaviour):
         default=0.5,
         gt=0.0,
     )
+    same_object_share: float = param(
+        "float",
+        doc="in a view where the detector boxed the target, a name the VLM gave counts toward the "
+        "agreement only if at least this share of its region lies inside one of those boxes (0: every "
+        "name near the target's point counts)",
+        default=0.3,
+        ge=0.0,
+        le=1.0,
+    )
     reject_radius_m: float = param(
         "float",
         doc="only aligned nodes this close to the robot and inside the camera's view are "
@@ -350,6 +359,19 @@ class ConfirmTarget(SemExpBehaviour):
         best: tuple[float, str, np.ndarray] | None = None
         boxed = False
         named_proposals: set[int] = set()
+        target_boxes = [
+            c.box_xyxy_px
+            for c in arbitration.candidates
+            if c.kind != "direction" and c.box_xyxy_px is not None and self._aligned(c.label)
+        ]
+
+        def about_another_object(region: tuple[float, float, float, float] | None) -> bool:
+            # A name whose region lies off every box the detector put on the target in this view names a
+            # neighbour, not the target: it says nothing of what the target is.
+            if region is None or not target_boxes or self.same_object_share <= 0.0:
+                return False
+            return max(_share_inside(region, box) for box in target_boxes) < self.same_object_share
+
         for candidate in arbitration.candidates:
             if candidate.kind == "direction":
                 continue
@@ -364,8 +386,9 @@ class ConfirmTarget(SemExpBehaviour):
             # of its scene proposal.
             if scene is not None and candidate.proposal_index is not None:
                 named_proposals.add(candidate.proposal_index)
-                vlm_name = scene.proposals[candidate.proposal_index].label
-                self._names.append((float(point[0]), float(point[1]), self._aligned(vlm_name)))
+                proposal = scene.proposals[candidate.proposal_index]
+                if not about_another_object(proposal.region_px):
+                    self._names.append((float(point[0]), float(point[1]), self._aligned(proposal.label)))
             if aligned:
                 boxed = boxed or candidate.has_box
                 if best is None or candidate.score > best[0]:
@@ -376,7 +399,7 @@ class ConfirmTarget(SemExpBehaviour):
                 if proposal.kind != "object" or index in named_proposals:
                     continue
                 point = nearby_point(proposal.point_px, proposal.region_px)
-                if point is not None:
+                if point is not None and not about_another_object(proposal.region_px):
                     self._names.append((float(point[0]), float(point[1]), self._aligned(proposal.label)))
         return None if best is None else (best[1], best[2], boxed)
 
@@ -607,3 +630,11 @@ class ConfirmTarget(SemExpBehaviour):
         if self._job is not None:
             self._job.cancel()
             self._job = None
+
+
+def _share_inside(region: tuple[float, float, float, float], box: tuple[float, float, float, float]) -> float:
+    """The share of ``region``'s area inside ``box`` (both ``(u0, v0, u1, v1)``)."""
+    width = min(region[2], box[2]) - max(region[0], box[0])
+    height = min(region[3], box[3]) - max(region[1], box[1])
+    area = (region[2] - region[0]) * (region[3] - region[1])
+    return 0.0 if width <= 0 or height <= 0 or area <= 0 else width * height / area
