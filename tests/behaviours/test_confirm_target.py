@@ -10,6 +10,7 @@ import dataclasses
 import math
 from collections.abc import Callable
 
+import numpy as np
 import pytest
 from py_trees.common import Status
 
@@ -368,3 +369,66 @@ def test_boxes_the_detector_labels_with_the_prompt_do_not_outvote_what_the_vlm_c
     assert "names heard at its spot name it" in confirm.feedback_message
     assert rig.get("found_objects") == []
     assert [e.get("cause") for e in rig.services.events] == ["label_agreement"]
+
+
+def seeing_with_regions(posts: list[Post]) -> Callable[[Observation], PerceptionResult]:
+    """As ``seeing``, with each VLM proposal's region: its post's box in the image."""
+    plain = seeing(posts, directions=False)
+
+    def answer(observation: Observation) -> PerceptionResult:
+        result = plain(observation)
+        assert observation.segmentation is not None
+        regions = {}
+        for post in posts:
+            rows, cols = np.nonzero(observation.segmentation == post.object_id)
+            if rows.size:
+                regions[post.vlm_label] = (
+                    float(cols.min()),
+                    float(rows.min()),
+                    float(cols.max()),
+                    float(rows.max()),
+                )
+        proposals = tuple(
+            dataclasses.replace(p, region_px=regions.get(p.label)) for p in result.scene.proposals
+        )
+        return dataclasses.replace(result, scene=dataclasses.replace(result.scene, proposals=proposals))
+
+    return answer
+
+
+@pytest.mark.parametrize(("same_object_share", "expected"), [(0.3, Status.SUCCESS), (0.0, Status.FAILURE)])
+def test_a_neighbours_name_does_not_count_against_the_target(
+    make_rig: Callable[..., Rig], same_object_share: float, expected: Status
+) -> None:
+    # A cabinet stands beside the extinguisher, its point 0.35 m from the extinguisher's: within the 0.5 m
+    # of the label agreement. The VLM names both in every view; the detector boxes the extinguisher only.
+    cabinet = Post(2, 0.8, 0.35, vlm_label="cabinet", detector_label=None)
+    robot = robot_among(TARGET, cabinet)
+    rig = make_rig(robot=robot, script=[seeing_with_regions([TARGET, cabinet])], latency_s=1.0)
+    rig.get("memory").add_master(position_m=(0.0, 0.0, 0.0), stamp_s=0.0)
+    rig.stage_view([TARGET])
+    confirm = rig.build(ConfirmTarget, same_object_share=same_object_share)
+    statuses = rig.tick_until_done(confirm)
+    rig.show(confirm)
+    print(confirm.feedback_message)
+    assert statuses[-1] == expected
+    if expected == Status.FAILURE:  # every name near the point counts: half of them name the cabinet
+        assert "names heard at its spot name it" in confirm.feedback_message
+    else:  # the cabinet's names lie off the extinguisher's box, so they do not count
+        (found,) = rig.get("found_objects")
+        assert found["label"] == "fire extinguisher"
+
+
+def test_another_name_for_the_boxed_object_itself_still_counts_against_it(
+    make_rig: Callable[..., Rig],
+) -> None:
+    # The detector boxes a board with the prompt's phrase; the VLM calls the same object a board, its region
+    # on the box: a name of the target's own object, so it counts (and outvotes the echo).
+    board = Post(1, 0.8, 0.0, vlm_label="advertising board", detector_label="fire extinguisher")
+    rig = rig_before_the_target(make_rig, [seeing_with_regions([board])], board)
+    confirm = rig.build(ConfirmTarget)
+    statuses = rig.tick_until_done(confirm)
+    rig.show(confirm)
+    assert compact(statuses) == ["RUNNING", "FAILURE"]
+    assert "names heard at its spot name it" in confirm.feedback_message
+    assert rig.get("found_objects") == []
