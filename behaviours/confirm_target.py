@@ -79,7 +79,12 @@ the instruction and says nothing of what the object is. Before declaring success
 ``label_agreement_radius_m`` of the target must name the target at least ``min_label_agreement`` of the
 time. A plain shelf that the VLM
 calls "shelf" in half its views and "bucket shelf" in the other half collects three votes now and
-then; it never collects a majority of 0.7. A real bucket shelf is named so in most views.
+then; it never collects a majority of 0.7. A real bucket shelf is named so in most views. In a view where
+the detector boxed the target, a name whose region lies mostly off those boxes (less than
+``same_object_share`` of it inside) belongs to a neighbour and leaves no mark: a grey chair beside the
+black chair, a kiosk against the bus station, named within 0.5 m of the target's point in every view,
+outvoted the target's own name before (docs/planner.md, seventeenth round). Another name for the boxed
+object itself (the VLM's "shelf" for the detector's "bucket shelf") still lies on the box and still counts.
 
 Example:
     - type: ConfirmTarget
