@@ -64,16 +64,20 @@ def cell_summaries(rows: Sequence[Mapping[str, Any]]) -> dict[tuple[str, str], d
     return out
 
 
+def succeeded(row: Mapping[str, Any]) -> bool:
+    """Whether a finished episode's row is a success as SR counts it (:func:`semexp_bt.core.metrics.success`,
+    at the row's own success radius)."""
+    radius = float(row.get("success_radius_m", metrics.DEFAULT_SUCCESS_RADIUS_M))
+    return metrics.success(to_episode_record(row), success_radius_m=radius)
+
+
 def success_times(rows: Sequence[Mapping[str, Any]]) -> dict[tuple[str, str], dict[str, float]]:
     """``(scene, strategy)`` and ``(ALL_SCENES, strategy)`` -> the simulated mission time of the successful
     episodes (success as SR counts it, :func:`semexp_bt.core.metrics.success`): ``median_s`` and ``n``.
     Cells without a success are left out."""
     groups: dict[tuple[str, str], list[float]] = {}
     for row in ok_rows(rows):
-        radius = float(row.get("success_radius_m", metrics.DEFAULT_SUCCESS_RADIUS_M))
-        if row.get("sim_time_s") is None or not metrics.success(
-            to_episode_record(row), success_radius_m=radius
-        ):
+        if row.get("sim_time_s") is None or not succeeded(row):
             continue
         for cell in ((row["scene"], row["strategy"]), (ALL_SCENES, row["strategy"])):
             groups.setdefault(cell, []).append(float(row["sim_time_s"]))
@@ -89,8 +93,7 @@ def success_paths(rows: Sequence[Mapping[str, Any]]) -> dict[str, dict[str, Any]
     ratios: dict[str, list[tuple[float, bool]]] = {}
     for row in ok_rows(rows):
         geodesic = row.get("geodesic_length_m")
-        radius = float(row.get("success_radius_m", metrics.DEFAULT_SUCCESS_RADIUS_M))
-        if not geodesic or not metrics.success(to_episode_record(row), success_radius_m=radius):
+        if not geodesic or not succeeded(row):
             continue
         ratio = float(row["path_length_m"]) / float(geodesic)
         rejected = (row.get("event_counts") or {}).get(CONFIRMATION_REJECTED, 0) > 0
@@ -121,17 +124,14 @@ def refusal_causes(rows: Sequence[Mapping[str, Any]]) -> dict[str, dict[str, dic
         causes = row.get("refusal_causes")
         if not causes:
             continue
-        radius = float(row.get("success_radius_m", metrics.DEFAULT_SUCCESS_RADIUS_M))
-        succeeded = row.get("sim_time_s") is not None and metrics.success(
-            to_episode_record(row), success_radius_m=radius
-        )
+        success = succeeded(row)
         for cause, count in causes.items():
             cell = out.setdefault(row["strategy"], {}).setdefault(
                 cause, {"refusals": 0, "episodes": 0, "successes": 0}
             )
             cell["refusals"] += int(count)
             cell["episodes"] += 1
-            cell["successes"] += int(succeeded)
+            cell["successes"] += int(success)
     return out
 
 

@@ -26,10 +26,15 @@ SEES, BLIND = seeing([TARGET], directions=False), seeing([], directions=False)
 
 
 def rig_before_the_target(
-    make_rig: Callable[..., Rig], further_views: list[Callable[..., object]], target: Post = TARGET
+    make_rig: Callable[..., Rig],
+    further_views: list[Callable[..., object]],
+    target: Post = TARGET,
+    *,
+    beside: tuple[Post, ...] = (),
 ) -> Rig:
-    """The robot 0.8 m from the target (front surface 0.6 m away); its first view is on the board."""
-    rig = make_rig(robot=robot_among(target), script=further_views, latency_s=1.0)
+    """The robot 0.8 m from the target (front surface 0.6 m away), with the posts ``beside`` it in the
+    world; its first view, of the target alone, is on the board."""
+    rig = make_rig(robot=robot_among(target, *beside), script=further_views, latency_s=1.0)
     rig.get("memory").add_master(position_m=(0.0, 0.0, 0.0), stamp_s=0.0)
     rig.stage_view([target])
     return rig
@@ -336,6 +341,13 @@ def test_a_base_that_never_reads_still_delays_the_views_by_a_second_at_most(
     assert len(rig.perception.requests) == 3
 
 
+def assert_refused_for_the_names(rig: Rig, confirm: ConfirmTarget, statuses: list[Status]) -> None:
+    """The confirmation failed after its further views, on the names heard at the target's spot."""
+    assert compact(statuses) == ["RUNNING", "FAILURE"]
+    assert "names heard at its spot name it" in confirm.feedback_message
+    assert rig.get("found_objects") == []
+
+
 def test_the_vlm_alone_does_not_confirm(make_rig: Callable[..., Rig]) -> None:
     named_by_the_vlm_only = Post(1, 0.8, 0.0, vlm_label="fire extinguisher", detector_label=None)
     further_views = [seeing([named_by_the_vlm_only], directions=False)]
@@ -365,9 +377,7 @@ def test_boxes_the_detector_labels_with_the_prompt_do_not_outvote_what_the_vlm_c
     confirm = rig.build(ConfirmTarget)
     statuses = rig.tick_until_done(confirm)
     rig.show(confirm)
-    assert compact(statuses) == ["RUNNING", "FAILURE"]
-    assert "names heard at its spot name it" in confirm.feedback_message
-    assert rig.get("found_objects") == []
+    assert_refused_for_the_names(rig, confirm, statuses)
     assert [e.get("cause") for e in rig.services.events] == ["label_agreement"]
 
 
@@ -403,10 +413,7 @@ def test_a_neighbours_name_does_not_count_against_the_target(
     # A cabinet stands beside the extinguisher, its point 0.35 m from the extinguisher's: within the 0.5 m
     # of the label agreement. The VLM names both in every view; the detector boxes the extinguisher only.
     cabinet = Post(2, 0.8, 0.35, vlm_label="cabinet", detector_label=None)
-    robot = robot_among(TARGET, cabinet)
-    rig = make_rig(robot=robot, script=[seeing_with_regions([TARGET, cabinet])], latency_s=1.0)
-    rig.get("memory").add_master(position_m=(0.0, 0.0, 0.0), stamp_s=0.0)
-    rig.stage_view([TARGET])
+    rig = rig_before_the_target(make_rig, [seeing_with_regions([TARGET, cabinet])], beside=(cabinet,))
     confirm = rig.build(ConfirmTarget, same_object_share=same_object_share)
     statuses = rig.tick_until_done(confirm)
     rig.show(confirm)
@@ -429,6 +436,4 @@ def test_another_name_for_the_boxed_object_itself_still_counts_against_it(
     confirm = rig.build(ConfirmTarget)
     statuses = rig.tick_until_done(confirm)
     rig.show(confirm)
-    assert compact(statuses) == ["RUNNING", "FAILURE"]
-    assert "names heard at its spot name it" in confirm.feedback_message
-    assert rig.get("found_objects") == []
+    assert_refused_for_the_names(rig, confirm, statuses)
