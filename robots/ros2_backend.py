@@ -130,6 +130,13 @@ HALTED_CLOSE_WAIT_S = 0.2
 #: answered later than odometry's 0.5 s once (CI), which is a slow simulation, not a lost robot. 1 s keeps
 #: a dead bridge's halt within the 2 s the executive has to exit.
 LOCKSTEP_REPLY_MIN_S = 1.0
+#: How long (s) a lockstep wait first polls for the bridge's reply before it blocks
+#: (robots/ros2_pump.py): a step's reply comes within a few hundred microseconds, sooner than the two
+#: thread wake-ups of a blocking wait. Also the bridge's poll for the executive's next request.
+LOCKSTEP_SPIN_S = 300e-6
+#: Lockstep: a step not answered within this wall time (s) is sent again (its best-effort message or the
+#: reply may have been dropped); the bridge answers a step it has already made with the state again.
+LOCKSTEP_RESEND_S = 0.1
 #: Longest single wait (s) inside a wait for the robot: between two, the waiting thread looks for a halt and
 #: (lockstep) at the bridge's silence.
 WAIT_SLICE_S = 0.05
@@ -182,8 +189,13 @@ def qos_profile(qos: TopicQos) -> Any:
     )
 
 
-#: QoS of the ``/sim/...`` topics: reliable (a lost step would stall the lockstep until a deadline).
+#: QoS of the ``/sim/...`` topics: reliable (a lost render request or frame would stall the lockstep).
 SIM_QOS = TopicQos(reliability="reliable", durability="volatile", depth=10)
+#: QoS of the lockstep's per-tick pair, ``/sim/step`` and ``/sim/state``: best effort. A reliable writer
+#: restarts its NACK-suppression timer (a wake-up of Fast DDS's event thread) and answers heartbeats for
+#: every message, which cost a lockstep tick more than the step itself; a step is idempotent (it steps to
+#: a stamp), so a lost step or reply is made good by sending the step again (:data:`LOCKSTEP_RESEND_S`).
+SIM_STEP_QOS = TopicQos(reliability="best_effort", durability="volatile", depth=10)
 #: QoS of the latched ``/sim/scene`` and ``/sim/outcome``.
 SIM_LATCHED_QOS = TopicQos(reliability="reliable", durability="transient_local", depth=1)
 
@@ -306,6 +318,9 @@ class Ros2Robot(Robot):
         }
         # Lockstep: the tick thread takes the bridge's replies itself (robots/ros2_pump.py).
         self._pump: Any = None
+        self._state_subscription: Any = None
+        #: Lockstep: steps sent again for want of an answer (LOCKSTEP_RESEND_S).
+        self.steps_resent = 0
         subscribe = self.node.create_subscription
         if not simulation:
             self._subscribe_sensors(subscribe, lockstep=False)
@@ -318,7 +333,7 @@ class Ros2Robot(Robot):
             # The sensor subscriptions follow the bridge's mode (_on_scene): which thread takes them.
             subscribe(String, SCENE_TOPIC, self._on_scene, qos_profile(SIM_LATCHED_QOS))
             subscribe(Header, HEARTBEAT_TOPIC, self._on_heartbeat, qos_profile(SIM_QOS))
-            self._step_pub = self.node.create_publisher(TwistStamped, STEP_TOPIC, qos_profile(SIM_QOS))
+            self._step_pub = self.node.create_publisher(TwistStamped, STEP_TOPIC, qos_profile(SIM_STEP_QOS))
             self._request_pub = self.node.create_publisher(String, CAMERA_REQUEST_TOPIC, qos_profile(SIM_QOS))
             self._outcome_pub = self.node.create_publisher(
                 String, OUTCOME_TOPIC, qos_profile(SIM_LATCHED_QOS)
@@ -340,7 +355,9 @@ class Ros2Robot(Robot):
         """
         topics, qos, types = self.profile.topics, self.profile.qos, self._msg_types
         if lockstep:
-            subscribe(types["state"], STATE_TOPIC, self._on_state, qos_profile(SIM_QOS))
+            self._state_subscription = subscribe(
+                types["state"], STATE_TOPIC, self._on_state, qos_profile(SIM_STEP_QOS)
+            )
         else:
             subscribe(types["odom"], topics.odom, self._on_odom, qos_profile(qos.odom))
             subscribe(types["imu"], topics.imu, self._store("imu"), qos_profile(qos.imu))
@@ -662,6 +679,8 @@ class Ros2Robot(Robot):
                     self._sim_time_reached(target_ns) and bool(self._odom) and self._odom[-1][0] >= target_ns
                 ),
                 deadline,
+                spin_on=(self._state_subscription,),
+                resend=self._resend_step,
             )
             if not arrived:
                 self._halt_locked(
@@ -669,30 +688,58 @@ class Ros2Robot(Robot):
                 )
             self._target_ns = target_ns
 
-    def _await_bridge(self, done: Callable[[], bool], deadline_s: float) -> bool:
+    def _resend_step(self) -> None:
+        self.steps_resent += 1
+        self._step_pub.publish(self._step_msg)
+
+    def _await_bridge(
+        self,
+        done: Callable[[], bool],
+        deadline_s: float,
+        *,
+        spin_on: tuple[Any, ...] = (),
+        resend: Callable[[], None] | None = None,
+    ) -> bool:
         """Lockstep: wait (lock held) until ``done()``, while the bridge keeps talking; False once it has
         sent nothing (not even its heartbeat) for ``deadline_s``. Raises if the robot was halted meanwhile.
+        ``spin_on``: the subscriptions the reply comes on, polled first (:data:`LOCKSTEP_SPIN_S`);
+        ``resend``: sends the request again, every :data:`LOCKSTEP_RESEND_S` without an answer.
 
         A busy bridge (a render on a loaded machine) is slow, not gone: the world is paused meanwhile.
         """
         while True:
             silent_s = time.monotonic() - self._bridge_heard_s
-            if self._wait_locked(lambda: self._halt is not None or done(), max(deadline_s - silent_s, 0.0)):
+            if self._wait_locked(
+                lambda: self._halt is not None or done(),
+                max(deadline_s - silent_s, 0.0),
+                spin_on=spin_on,
+                resend=resend,
+            ):
                 self._raise_if_halted()
                 return True
             if time.monotonic() - self._bridge_heard_s >= deadline_s:
                 return False
 
-    def _wait_locked(self, done: Callable[[], bool], timeout_s: float) -> bool:
+    def _wait_locked(
+        self,
+        done: Callable[[], bool],
+        timeout_s: float,
+        *,
+        spin_on: tuple[Any, ...] = (),
+        resend: Callable[[], None] | None = None,
+    ) -> bool:
         """Wait (lock held) until ``done()``, at most ``timeout_s``; whether it came true.
 
         Before the bridge's mode is known, and live, the executor thread's callbacks notify the lock. In
         lockstep the waiting thread takes the bridge's replies itself (the pump runs their callbacks here),
-        with the lock released meanwhile so that the executor thread's callbacks (the heartbeat) go on.
+        with the lock released meanwhile so that the executor thread's callbacks (the heartbeat) go on;
+        ``resend`` (lockstep) runs there too, each :data:`LOCKSTEP_RESEND_S` without ``done()``.
         """
-        deadline = time.monotonic() + timeout_s
+        sent_s = time.monotonic()
+        deadline = sent_s + timeout_s
         while not done():
-            left = deadline - time.monotonic()
+            now = time.monotonic()
+            left = deadline - now
             if left <= 0.0:
                 return False
             pump = self._pump
@@ -701,7 +748,10 @@ class Ros2Robot(Robot):
                 continue
             self._lock.release()
             try:
-                pump.pump(min(left, WAIT_SLICE_S))
+                if resend is not None and now - sent_s >= LOCKSTEP_RESEND_S:
+                    resend()
+                    sent_s = now
+                pump.pump(min(left, WAIT_SLICE_S, LOCKSTEP_RESEND_S), spin_on=spin_on, spin_s=LOCKSTEP_SPIN_S)
             finally:
                 self._lock.acquire()
         return True

@@ -9,11 +9,21 @@ instead puts its subscriptions in a callback group no executor runs (:class:`Cal
 thread that waits for the reply wait on them itself (one rcl wait set, built once), take what is ready
 and run the subscriptions' own callbacks, on that thread.
 
+A wait that blocks costs two thread wake-ups per message (Fast DDS's receive thread, then the waiting
+thread), each tens of microseconds on a virtual machine. In lockstep the reply usually comes within a few
+hundred microseconds, so :meth:`SubscriptionPump.pump` can first poll the subscriptions the caller expects
+the reply on, for ``spin_s`` (yielding the core between polls, so that the receive thread it waits for
+runs), and block only if nothing came: the adaptive spinning of glibc's adaptive mutexes, applied to a
+message. ``scripts/ros2_round_trip.py --spin-us`` measures both ways (docs/ros2.md).
+
 Imported only where rclpy is (the ROS 2 backend and the bridge build one when they need it).
 """
 
 from __future__ import annotations
 
+import os
+import time
+from collections.abc import Sequence
 from contextlib import ExitStack
 from typing import Any
 
@@ -60,16 +70,25 @@ class SubscriptionPump:
         self._wait_set = None  # sized to the subscriptions: rebuilt at the next pump
         return subscription
 
-    def pump(self, timeout_s: float) -> int:
+    def pump(self, timeout_s: float, *, spin_on: Sequence[Any] = (), spin_s: float = 0.0) -> int:
         """Wait up to ``timeout_s`` for a message on any subscription, then take the oldest message of
         each ready one and run its callback here; how many ran.
 
         One message per subscription and call: a lockstep reply is one message, and taking until the
         queue is empty costs a second, empty take per reply. What is left keeps its subscription ready,
-        so the next call returns at once and takes it (in arrival order per subscription)."""
+        so the next call returns at once and takes it (in arrival order per subscription).
+
+        ``spin_on`` (some of this pump's subscriptions) and ``spin_s``: first poll those for a message
+        for up to ``spin_s`` (at most ``timeout_s``) without blocking, and return as soon as one ran; the
+        blocking wait follows only if none came. The other subscriptions' messages wait for a blocking
+        call meanwhile (a lockstep peer has one request or reply in flight at a time)."""
         subscriptions = self._subscriptions
         if not subscriptions:
             return 0
+        if spin_on and spin_s > 0.0:
+            ran = self._poll(spin_on, min(spin_s, timeout_s))
+            if ran:
+                return ran
         context = self._node.context
         with ExitStack() as in_use:  # the handles may not be destroyed while rcl waits on them
             in_use.enter_context(context.handle)
@@ -93,6 +112,22 @@ class SubscriptionPump:
                 subscription.callback(taken[0])
                 ran += 1
         return ran
+
+    @staticmethod
+    def _poll(subscriptions: Sequence[Any], spin_s: float) -> int:
+        """Take from ``subscriptions`` until one yields a message (its callback runs here; 1) or
+        ``spin_s`` has passed (0), yielding the core between rounds."""
+        end = time.perf_counter() + spin_s
+        while True:
+            for subscription in subscriptions:
+                with subscription.handle:
+                    taken = subscription.handle.take_message(subscription.msg_type, subscription.raw)
+                if taken is not None:
+                    subscription.callback(taken[0])
+                    return 1
+            if time.perf_counter() >= end:
+                return 0
+            os.sched_yield()
 
     def close(self) -> None:
         """Release the wait set (before the node and the context go; idempotent)."""

@@ -6,15 +6,15 @@ simulation has travels here, never on those:
 | topic | type | from -> to | what |
 | --- | --- | --- | --- |
 | ``/sim/scene`` | std_msgs/String (JSON), transient local | bridge -> executive | the scene's catalogue for the perception emulator: object ids, labels, categories, roles, sizes; no positions |
-| ``/sim/step`` | geometry_msgs/TwistStamped | executive -> bridge | lockstep: step the world to ``header.stamp`` applying ``twist`` |
+| ``/sim/step`` | geometry_msgs/TwistStamped, best effort | executive -> bridge | lockstep: step the world to ``header.stamp`` applying ``twist``; a step for a stamp already reached is answered with the state again (how a lost step or reply is made good) |
 | ``/sim/camera/request`` | std_msgs/String (JSON) | executive -> bridge | lockstep: render the camera now (``full``, or ``depth`` at pixel grids), or measure the flank cameras (``side``, at pixel grids) |
 | ``/sim/camera/segmentation`` | sensor_msgs/Image 16UC1 (id + 1) | bridge -> executive | the segmentation of each full frame, stamped as the colour frame |
 | ``/sim/outcome`` | std_msgs/String (JSON), transient local | executive -> bridge | the mission's declared outcome and confirmed targets, for the bridge's scoring |
 | ``/sim/time`` | std_msgs/Float64 | bridge -> executive | the simulator's clock in float seconds (``/clock`` is its nanosecond rounding); the lockstep executive's clock, so that its time comparisons are the in-process run's to the bit |
-| ``/sim/state`` | std_msgs/Float64MultiArray (:data:`STATE_FIELDS`) | bridge -> executive | lockstep: after each step, the one reply: the step's stamp, the float clock, the odometry, the IMU and the joints (the values ``/odom``, ``/sim/time``, ``/imu`` and ``/joint_states`` carry), so that a step costs one message and one wake-up |
+| ``/sim/state`` | std_msgs/Float64MultiArray (:data:`STATE_FIELDS`), best effort | bridge -> executive | lockstep: after each step, the one reply: the step's stamp, the float clock, the odometry, the IMU and the joints (the values ``/odom``, ``/sim/time``, ``/imu`` and ``/joint_states`` carry), so that a step costs one message and one wake-up |
 | ``/sim/heartbeat`` | std_msgs/Header | bridge -> executive | every 0.1 s from a thread of its own: the bridge is alive, if busy (a lockstep wait halts only after the deadline passes without it) |
 
-The bridge keeps the ground truth (where things are, which object is reached, collisions) to itself and
+Every other ``/sim/...`` topic is reliable. The bridge keeps the ground truth (where things are, which object is reached, collisions) to itself and
 scores the episode; the executive's emulator needs only what a detector "knows" about the classes.
 
 This module is plain data (no rclpy): the names and the JSON payloads, encoded and decoded in one place.

@@ -6,8 +6,10 @@ Run it in the ROS 2 environment, on loopback only::
 
 Two processes, as the bridge and the executive: one publishes a ``/sim/state``-sized message
 (std_msgs/Float64MultiArray of :data:`robots.ros2_sim_protocol.STATE_FIELDS` values and the Go1's joints) with the lockstep
-topics' QoS and waits for the other's reply, which answers each message with one of its own. Both take
-their messages with the lockstep pump (``robots/ros2_pump.py``). It prints the round trip's median, mean
+step's QoS (best effort, ``SIM_STEP_QOS``; ``--reliable`` for the other ``/sim`` topics' ``SIM_QOS``) and
+waits for the other's reply, which answers each message with one of its own. Both take their messages
+with the lockstep pump (``robots/ros2_pump.py``), polling for ``--spin-us`` first as the lockstep does
+(default ``LOCKSTEP_SPIN_S``; ``--spin-us 0``: block at once). It prints the round trip's median, mean
 and 90th percentile in microseconds, the asking side's publish (median) and its thread's CPU time per round
 trip: the floor under every lockstep step (one round trip per tick), which
 no change to the bridge or the executive can go below on this transport (docs/ros2.md).
@@ -29,7 +31,14 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from robots.go1 import load_go1_spec  # noqa: E402
-from robots.ros2_backend import SIM_QOS, import_rclpy, qos_profile, ros_context  # noqa: E402
+from robots.ros2_backend import (  # noqa: E402
+    LOCKSTEP_SPIN_S,
+    SIM_QOS,
+    SIM_STEP_QOS,
+    import_rclpy,
+    qos_profile,
+    ros_context,
+)
 from robots.ros2_pump import SubscriptionPump  # noqa: E402
 from robots.ros2_sim_protocol import STATE_FIELDS  # noqa: E402
 
@@ -38,7 +47,7 @@ PING, PONG = "/round_trip/ping", "/round_trip/pong"
 STOP = -1.0
 
 
-def serve(role: str, count: int) -> dict[str, float] | None:
+def serve(role: str, count: int, *, reliable: bool, spin_s: float) -> dict[str, float] | None:
     """``ask``: send ``count`` messages one at a time and time each answer; ``answer``: reply to each."""
     rclpy = import_rclpy()
     from std_msgs.msg import Float64MultiArray
@@ -48,16 +57,15 @@ def serve(role: str, count: int) -> dict[str, float] | None:
     pump = SubscriptionPump(node)
     received: list[float] = []
     out_topic, in_topic = (PING, PONG) if role == "ask" else (PONG, PING)
-    publisher = node.create_publisher(Float64MultiArray, out_topic, qos_profile(SIM_QOS))
-    pump.subscribe(
-        Float64MultiArray, in_topic, lambda msg: received.append(msg.data[0]), qos_profile(SIM_QOS)
-    )
+    qos = qos_profile(SIM_QOS if reliable else SIM_STEP_QOS)
+    publisher = node.create_publisher(Float64MultiArray, out_topic, qos)
+    reply = pump.subscribe(Float64MultiArray, in_topic, lambda msg: received.append(msg.data[0]), qos)
     msg = Float64MultiArray()
     msg.data = array.array("d", [0.5] * (len(STATE_FIELDS) + 2 * len(load_go1_spec().joint_names)))
     try:
         if role == "answer":
             while True:
-                pump.pump(1.0)
+                pump.pump(1.0, spin_on=(reply,), spin_s=spin_s)
                 if received:
                     stop = STOP in received
                     received.clear()
@@ -74,7 +82,7 @@ def serve(role: str, count: int) -> dict[str, float] | None:
             publisher.publish(msg)
             publishes.append(time.perf_counter() - start)
             while not received:
-                pump.pump(1.0)
+                pump.pump(1.0, spin_on=(reply,), spin_s=spin_s)
             received.clear()
             times.append(time.perf_counter() - start)
         cpu_per_round_trip_us = (time.thread_time() - cpu_start) / (count + 1) * 1e6
@@ -101,17 +109,25 @@ def serve(role: str, count: int) -> dict[str, float] | None:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--count", type=int, default=3000)
+    parser.add_argument("--reliable", action="store_true", help="reliable QoS (SIM_QOS), not best effort")
+    parser.add_argument(
+        "--spin-us",
+        type=float,
+        default=LOCKSTEP_SPIN_S * 1e6,
+        help="poll this long before blocking (0: never)",
+    )
     parser.add_argument("--role", choices=("ask", "answer"), default=None, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.role is not None:
-        figures = serve(args.role, args.count)
+        figures = serve(args.role, args.count, reliable=args.reliable, spin_s=args.spin_us * 1e-6)
         if figures is not None:
             print(json.dumps(figures))
         return 0
-    answer = subprocess.Popen([sys.executable, __file__, "--role", "answer"], cwd=ROOT)
+    link = [*(["--reliable"] if args.reliable else []), "--spin-us", str(args.spin_us)]
+    answer = subprocess.Popen([sys.executable, __file__, "--role", "answer", *link], cwd=ROOT)
     try:
         asked = subprocess.run(
-            [sys.executable, __file__, "--role", "ask", "--count", str(args.count)],
+            [sys.executable, __file__, "--role", "ask", "--count", str(args.count), *link],
             cwd=ROOT, check=True, capture_output=True, text=True, timeout=600,
         )  # fmt: skip
         print(asked.stdout.strip().splitlines()[-1])

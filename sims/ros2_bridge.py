@@ -43,7 +43,15 @@ from robots.go1 import load_go1_spec
 from robots.interface import Fidelity, Robot
 from robots.mount import FLANK_SIDES
 from robots.mujoco_backend import MujocoRobot
-from robots.ros2_backend import SIM_LATCHED_QOS, SIM_QOS, import_rclpy, qos_profile, ros_context
+from robots.ros2_backend import (
+    LOCKSTEP_SPIN_S,
+    SIM_LATCHED_QOS,
+    SIM_QOS,
+    SIM_STEP_QOS,
+    import_rclpy,
+    qos_profile,
+    ros_context,
+)
 from robots.ros2_messages import (
     MessageError,
     fill_camera_info,
@@ -123,6 +131,8 @@ class BridgeOptions:
         camera_hz: realtime mode: camera frames per simulated second.
         silence: fault injection for tests: stream key -> simulated time (s) after which it is no longer
             published.
+        drop_step_replies: fault injection for tests (lockstep): leave every this many-th step unanswered,
+            as if its best-effort reply were lost (0: never); the executive asks again.
         success_radius_m: r_s.
         clearance_m: the clearance threshold for OASR.
         max_sim_s: the bridge ends the episode at this simulated time.
@@ -137,6 +147,7 @@ class BridgeOptions:
     result_path: Path | None = None
     camera_hz: float = 15.0
     silence: Mapping[str, float] = field(default_factory=dict)
+    drop_step_replies: int = 0
     success_radius_m: float = DEFAULT_SUCCESS_RADIUS_M
     clearance_m: float = DEFAULT_CLEARANCE_M
     max_sim_s: float = 900.0
@@ -151,6 +162,11 @@ class BridgeOptions:
             raise InvalidInputError(
                 f"cannot silence {riding} in lockstep: they ride on {STATE_TOPIC} there (silence 'odom' to "
                 "stop it, or use realtime mode)"
+            )
+        if self.drop_step_replies < 0 or (self.drop_step_replies and self.mode != "lockstep"):
+            raise InvalidInputError(
+                f"drop_step_replies must be >= 0, and 0 outside lockstep; got {self.drop_step_replies} "
+                f"in {self.mode}"
             )
         if not (math.isfinite(self.camera_hz) and 0.0 < self.camera_hz <= 1.0 / CONTROL_PERIOD_S):
             raise InvalidInputError(
@@ -220,6 +236,9 @@ class SimBridge:
         self._joint_names = load_go1_spec().joint_names
         self._period_ns = int(round(CONTROL_PERIOD_S * 1e9))
         self._steps = 0
+        # Lockstep: steps answered, replies left out on purpose (drop_step_replies), and steps asked again
+        # for a stamp already reached (the executive's resends, answered with the state again).
+        self._step_replies = {"sent": 0, "dropped": 0, "repeated": 0}
         self._positions = [self.robot.base_pose().position()]
         self._proprioception: tuple[ImuReading, JointState] | None = None
         self._cmd_twist = Twist.zero()
@@ -265,6 +284,8 @@ class SimBridge:
         from robots.ros2_pump import SubscriptionPump
 
         self._pump = SubscriptionPump(self.node)
+        #: Lockstep: the executive's request subscriptions (step, render), polled before each wait.
+        self._requests: tuple[Any, ...] = ()
         topics, qos = self.profile.topics, self.profile.qos
         self._pubs: dict[str, Any] = {
             stream: self.node.create_publisher(
@@ -285,7 +306,9 @@ class SimBridge:
             )
         self._pubs["sim_time"] = self.node.create_publisher(Float64, TIME_TOPIC, qos_profile(SIM_QOS))
         self._types["sim_time"] = Float64
-        self._pubs["state"] = self.node.create_publisher(Float64MultiArray, STATE_TOPIC, qos_profile(SIM_QOS))
+        self._pubs["state"] = self.node.create_publisher(
+            Float64MultiArray, STATE_TOPIC, qos_profile(SIM_STEP_QOS)
+        )
         self._types["state"] = Float64MultiArray
         # The per-step messages are built once and refilled (publish copies them): building an Odometry
         # in Python costs more than a kinematic step.
@@ -298,8 +321,10 @@ class SimBridge:
         subscribe(TwistMsg, topics.cmd_vel, self._on_cmd_vel, qos_profile(qos.cmd_vel))
         subscribe(String, OUTCOME_TOPIC, self._on_outcome, qos_profile(SIM_LATCHED_QOS))
         if lockstep:
-            subscribe(TwistStamped, STEP_TOPIC, self._on_step, qos_profile(SIM_QOS))
-            subscribe(String, CAMERA_REQUEST_TOPIC, self._on_camera_request, qos_profile(SIM_QOS))
+            self._requests = (
+                subscribe(TwistStamped, STEP_TOPIC, self._on_step, qos_profile(SIM_STEP_QOS)),
+                subscribe(String, CAMERA_REQUEST_TOPIC, self._on_camera_request, qos_profile(SIM_QOS)),
+            )
         announcement = String()
         announcement.data = encode_simulation_info(
             self.scene,
@@ -489,10 +514,21 @@ class SimBridge:
         except MessageError as error:
             self._errors.append(f"{STEP_TOPIC}: {error}; stepping with a zero twist")
             twist = Twist.zero()
-        # The executive's target time, in whole control periods (normally one).
+        # The executive's target time, in whole control periods (normally one). A step for a stamp already
+        # reached is a resend (its reply was lost, or late): it is answered with the state again.
+        stepped = False
         while self._now_ns() + self._period_ns // 2 < target_ns and self._stop_reason is None:
             self.step(twist)
+            stepped = True
         self._last_step_wall_s = time.monotonic()
+        replies = self._step_replies
+        if not stepped:
+            replies["repeated"] += 1
+        drop_every = self.options.drop_step_replies
+        if stepped and drop_every and self._steps % drop_every == 0:
+            replies["dropped"] += 1
+            return
+        replies["sent"] += 1
         self.publish_state()
 
     def _on_camera_request(self, msg: Any) -> None:
@@ -566,7 +602,7 @@ class SimBridge:
 
     def _run_lockstep(self, wall_start: float) -> None:
         while not self._wall_exceeded(wall_start):
-            self._pump.pump(HEARTBEAT_S / 5)
+            self._pump.pump(HEARTBEAT_S / 5, spin_on=self._requests, spin_s=LOCKSTEP_SPIN_S)
             if time.monotonic() - self._last_step_wall_s > HEARTBEAT_S:
                 self.publish_state(heartbeat=True)
                 self._last_step_wall_s = time.monotonic()
@@ -616,6 +652,7 @@ class SimBridge:
             "sim_time_s": self._now_ns() * 1e-9,
             "wall_time_s": wall_s,
             "frames_published": self._frames_published,
+            "step_replies": dict(self._step_replies),
             # (stamp ns, steady time the frame was rendered) per frame: the latency benchmark's send side.
             "frame_log": self._frame_log[-4096:],
             "cmd_vel": {

@@ -76,3 +76,46 @@ def test_pumped_messages_run_on_the_pumping_thread_and_never_on_the_executor() -
         executor.shutdown(timeout_sec=1.0)
         node.destroy_node()
         context.try_shutdown()
+
+
+def test_a_spinning_pump_polls_the_expected_reply_and_blocks_for_the_rest() -> None:
+    isolate_this_process(fresh_domain_id())
+    rclpy = import_rclpy()
+    from std_msgs.msg import Float64
+
+    from robots.ros2_pump import SubscriptionPump
+
+    context = ros_context(rclpy)
+    node = rclpy.create_node("spin_test", context=context, start_parameter_services=False)
+    try:
+        got: list[tuple[str, float, str]] = []
+        pump = SubscriptionPump(node)
+
+        def record(topic: str) -> Any:
+            return lambda msg: got.append((topic, msg.data, threading.current_thread().name))
+
+        reply = pump.subscribe(Float64, "/spin_test/reply", record("reply"), qos_profile(SIM_QOS))
+        pump.subscribe(Float64, "/spin_test/other", record("other"), qos_profile(SIM_QOS))
+        to_reply = node.create_publisher(Float64, "/spin_test/reply", qos_profile(SIM_QOS))
+        to_other = node.create_publisher(Float64, "/spin_test/other", qos_profile(SIM_QOS))
+        assert wait_for(
+            lambda: to_reply.get_subscription_count() and to_other.get_subscription_count(), timeout_s=10
+        )
+        print(pump, "spins on", reply.topic_name)
+
+        t0 = time.monotonic()
+        assert pump.pump(0.2, spin_on=(reply,), spin_s=0.05) == 0  # polls 0.05 s, then blocks the rest
+        assert 0.15 <= time.monotonic() - t0 < 2.0
+
+        to_reply.publish(Float64(data=1.0))
+        assert pump.pump(5.0, spin_on=(reply,), spin_s=5.0) == 1  # taken by the poll
+        to_other.publish(Float64(data=2.0))
+        ran, deadline = 0, time.monotonic() + 10
+        while not ran and time.monotonic() < deadline:  # not polled: the blocking wait takes it
+            ran = pump.pump(1.0, spin_on=(reply,), spin_s=0.01)
+        me = threading.current_thread().name
+        assert got == [("reply", 1.0, me), ("other", 2.0, me)]
+        pump.close()
+    finally:
+        node.destroy_node()
+        context.try_shutdown()

@@ -234,6 +234,7 @@ def run_ros2_mission(options: Ros2MissionOptions) -> dict[str, Any]:
                 if info is None
                 else {"scene": info.scene.name, "seed": info.seed, "mode": info.mode},
                 "ros_time_at_start_s": robot.epoch_s,
+                "steps_resent": robot.steps_resent,
                 "mission_wall_s": mission_wall_s,
                 "wall_time_s": time.perf_counter() - wall_start,
             }

@@ -58,6 +58,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="fault injection (tests): stop publishing STREAM (odom, imu, color_image, ...) after SECONDS of "
         "simulated time",
     )
+    parser.add_argument(
+        "--drop-step-replies",
+        type=int,
+        default=0,
+        metavar="N",
+        help="fault injection (tests, lockstep): leave every N-th step unanswered, as if its reply were lost",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -82,6 +89,7 @@ def run(args: argparse.Namespace) -> int:
                 result_path=args.json,
                 camera_hz=args.camera_hz,
                 silence=dict(args.silence),
+                drop_step_replies=args.drop_step_replies,
                 max_sim_s=args.max_sim_s,
                 max_wall_s=args.max_wall_s,
             )
