@@ -106,7 +106,7 @@ from behaviours.spec import param
 from behaviours.spin import turn_rate_toward
 from semexp_bt.core.clock import has_elapsed
 from semexp_bt.core.evidence import ArbitrationResult, arbitrate, candidate_box
-from semexp_bt.core.geometry import locate_in_view, wrap_angle
+from semexp_bt.core.geometry import box_share_inside, locate_in_view, wrap_angle
 from semexp_bt.core.relevance import NAMES_OBJECT_RELEVANCE
 from semexp_bt.core.types import Observation, SceneEvidence, Twist
 from semexp_bt.perception.interface import PerceptionJob
@@ -375,7 +375,7 @@ class ConfirmTarget(SemExpBehaviour):
             # neighbour, not the target: it says nothing of what the target is.
             if region is None or not target_boxes or self.same_object_share <= 0.0:
                 return False
-            return max(_share_inside(region, box) for box in target_boxes) < self.same_object_share
+            return max(box_share_inside(region, box) for box in target_boxes) < self.same_object_share
 
         for candidate in arbitration.candidates:
             if candidate.kind == "direction":
@@ -635,11 +635,3 @@ class ConfirmTarget(SemExpBehaviour):
         if self._job is not None:
             self._job.cancel()
             self._job = None
-
-
-def _share_inside(region: tuple[float, float, float, float], box: tuple[float, float, float, float]) -> float:
-    """The share of ``region``'s area inside ``box`` (both ``(u0, v0, u1, v1)``)."""
-    width = min(region[2], box[2]) - max(region[0], box[0])
-    height = min(region[3], box[3]) - max(region[1], box[1])
-    area = (region[2] - region[0]) * (region[3] - region[1])
-    return 0.0 if width <= 0 or height <= 0 or area <= 0 else width * height / area

@@ -319,13 +319,36 @@ def box_iou(a_xyxy: Sequence[float], b_xyxy: Sequence[float]) -> float:
     Raises:
         InvalidInputError: a box is not four finite numbers or is inverted.
     """
-    au0, av0, au1, av1 = check_box("a_xyxy", a_xyxy)
-    bu0, bv0, bu1, bv1 = check_box("b_xyxy", b_xyxy)
-    inter = max(0.0, min(au1, bu1) - max(au0, bu0)) * max(0.0, min(av1, bv1) - max(av0, bv0))
-    union = (au1 - au0) * (av1 - av0) + (bu1 - bu0) * (bv1 - bv0) - inter
+    a = check_box("a_xyxy", a_xyxy)
+    b = check_box("b_xyxy", b_xyxy)
+    inter = _intersection_area(a, b)
+    union = _area(a) + _area(b) - inter
     if union <= 0.0:
         return 0.0
     return min(1.0, max(0.0, inter / union))
+
+
+def box_share_inside(region_xyxy: Sequence[float], box_xyxy: Sequence[float]) -> float:
+    """The share of ``region``'s area that lies inside ``box``, in [0, 1]; 0 for a region with no area.
+
+    Unlike IoU it does not fall when the box is much larger than the region: a part named inside an
+    object's box lies wholly inside it (``(10, 10, 20, 20)`` in ``(0, 0, 100, 100)``: 1.0).
+
+    Raises:
+        InvalidInputError: a box is not four finite numbers or is inverted.
+    """
+    region = check_box("region_xyxy", region_xyxy)
+    box = check_box("box_xyxy", box_xyxy)
+    area = _area(region)
+    return 0.0 if area <= 0.0 else min(1.0, _intersection_area(region, box) / area)
+
+
+def _area(box: tuple[float, float, float, float]) -> float:
+    return (box[2] - box[0]) * (box[3] - box[1])
+
+
+def _intersection_area(a: tuple[float, float, float, float], b: tuple[float, float, float, float]) -> float:
+    return max(0.0, min(a[2], b[2]) - max(a[0], b[0])) * max(0.0, min(a[3], b[3]) - max(a[1], b[1]))
 
 
 def box_iou_matrix(a_xyxy: npt.ArrayLike, b_xyxy: npt.ArrayLike) -> FloatArray:
