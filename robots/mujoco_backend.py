@@ -169,6 +169,26 @@ def _copy_imu(reading: ImuReading) -> ImuReading:
 _CONTACT_TOLERANCE_M = 1e-4
 
 
+@dataclass(frozen=True)
+class KinematicSnapshot:
+    """What a kinematic step changes in a :class:`MujocoRobot`, kept to take the step back
+    (:meth:`MujocoRobot.snapshot`, :meth:`MujocoRobot.restore`). Opaque to callers."""
+
+    qpos: FloatArray
+    time_s: float
+    clock_target_s: float
+    command: Twist
+    base_velocity: FloatArray
+    base_accel: FloatArray
+    min_clearance_m: float
+    least_clearance_m: float
+    events: int
+    in_collision: frozenset[int]
+    in_clearance: frozenset[int]
+    imu_sample: tuple[float, ImuReading] | None
+    transform_cache: tuple[bytes, FloatArray] | None
+
+
 class MujocoRobot(Robot):
     """A Go1 with a head RGB-D camera in a MuJoCo scene.
 
@@ -447,6 +467,58 @@ class MujocoRobot(Robot):
             mujoco.mj_step(self.model, self.data)
         self._check_safety()
 
+    def snapshot(self) -> KinematicSnapshot:
+        """The state a kinematic step changes (kinematic fidelity only), for :meth:`restore`.
+
+        The ROS 2 bridge steps ahead speculatively while the executive ticks and takes the step back when
+        the executive asks for another (sims/ros2_bridge.py). Reads only: no noise is drawn.
+
+        Raises:
+            InvalidInputError: in dynamic fidelity (the physics and the gait hold more state than this).
+        """
+        if self._fidelity != "kinematic":
+            raise InvalidInputError(
+                "snapshot() is kinematic-only: a dynamic step changes the whole physics state"
+            )
+        return KinematicSnapshot(
+            qpos=self.data.qpos.copy(),
+            time_s=float(self.data.time),
+            clock_target_s=self._clock_target_s,
+            command=self._command,
+            base_velocity=self._base_velocity,  # replaced by each step, never written in place
+            base_accel=self._base_accel,
+            min_clearance_m=self._min_clearance_m,
+            least_clearance_m=self._least_clearance_m,
+            events=len(self._events),
+            in_collision=frozenset(self._in_collision),
+            in_clearance=frozenset(self._in_clearance),
+            imu_sample=self._imu_sample,
+            transform_cache=self._transform_cache,
+        )
+
+    def restore(self, snapshot: KinematicSnapshot) -> None:
+        """Back to ``snapshot`` (taken by this robot since its last :meth:`teleport`): the pose, the clock,
+        the velocities, the safety record (events after it dropped) and every body and geom pose derived
+        from them, to the bit."""
+        if self._fidelity != "kinematic":
+            raise InvalidInputError("restore() is kinematic-only")
+        if snapshot.events > len(self._events):
+            raise InvalidInputError("restore(): the snapshot is newer than this robot's event log")
+        self.data.qpos[:] = snapshot.qpos
+        self.data.time = snapshot.time_s
+        mujoco.mj_kinematics(self.model, self.data)
+        self._clock_target_s = snapshot.clock_target_s
+        self._command = snapshot.command
+        self._base_velocity = snapshot.base_velocity
+        self._base_accel = snapshot.base_accel
+        self._min_clearance_m = snapshot.min_clearance_m
+        self._least_clearance_m = snapshot.least_clearance_m
+        del self._events[snapshot.events :]
+        self._in_collision = set(snapshot.in_collision)
+        self._in_clearance = set(snapshot.in_clearance)
+        self._imu_sample = snapshot.imu_sample
+        self._transform_cache = snapshot.transform_cache
+
     def advance(self, duration_s: float) -> None:
         """Step the simulation by ``duration_s`` (rounded to whole physics steps), one control period at a time."""
         require_finite("duration_s", duration_s)
@@ -690,4 +762,4 @@ class MujocoRobot(Robot):
             self._camera = None
 
 
-__all__ = ["BaseMotionLimits", "ImuNoise", "MujocoRobot"]
+__all__ = ["BaseMotionLimits", "ImuNoise", "KinematicSnapshot", "MujocoRobot"]

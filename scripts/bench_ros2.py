@@ -8,7 +8,9 @@ Run it in the ROS 2 environment, on loopback only::
    and over ROS 2 in lockstep (``semexp-bt sim-bridge`` and ``semexp-bt run --backend ros2`` as two
    processes), alternately ``--repeats`` times: outcome of each, mission wall time per simulated second
    (the mission loop only: each record's ``mission_wall_s``, the wall time of ``run_mission``, measured the
-   same way by both backends), the executive's tick median and p99.
+   same way by both backends), the executive's tick median and p99. ``--compare-speculation`` adds a
+   third run to each repeat, over ROS 2 with the bridge's speculative step off (``sim-bridge
+   --no-speculation``), between the other two: a paired before/after on the same machine.
 0. Start-up cost of the ROS 2 wheels' bootstrap ``.pth`` (it re-executes every Python start to set
    LD_LIBRARY_PATH): median wall time of the same commands with .venv's interpreter and with
    .venv-ros2's (the same packages plus the ROS 2 wheels), ``--startup-repeats`` runs each.
@@ -79,11 +81,13 @@ def in_process(mission: Path, scene: str, seed: int, out: Path) -> dict[str, Any
     }
 
 
-def over_ros2(mission: Path, scene: str, seed: int, out: Path) -> dict[str, Any]:
-    """The same episode over ROS 2 in lockstep: bridge and executive as two processes."""
+def over_ros2(mission: Path, scene: str, seed: int, out: Path, *, speculate: bool = True) -> dict[str, Any]:
+    """The same episode over ROS 2 in lockstep: bridge and executive as two processes (``speculate``: the
+    bridge's speculative step, sims.ros2_bridge.Speculation)."""
     bridge_json, exec_json = out / f"bridge_{scene}_{seed}.json", out / f"executive_{scene}_{seed}.json"
     run_bridge_and_executive(
-        _cli("sim-bridge", "--scene", scene, "--seed", str(seed), "--json", str(bridge_json), "--max-wall-s", "900"),
+        _cli("sim-bridge", "--scene", scene, "--seed", str(seed), "--json", str(bridge_json), "--max-wall-s", "900",
+             *(() if speculate else ("--no-speculation",))),
         _cli("run", str(mission), "--backend", "ros2", "--seed", str(seed), "--relevance", "lexical",
              "--json", str(exec_json)),
         quiet=True,
@@ -98,6 +102,7 @@ def over_ros2(mission: Path, scene: str, seed: int, out: Path) -> dict[str, Any]
         "mission_wall_s": executive["mission_wall_s"],
         "wall_per_sim_s": executive["mission_wall_s"] / executive["sim_time_s"],
         "tick_wall_ms": executive["tick_wall_ms"],
+        "speculative_steps": scored["speculative_steps"],
     }
 
 
@@ -190,6 +195,12 @@ def main() -> int:
     parser.add_argument(
         "--budget-s", type=float, default=None, help="cut the mission's budget (s) for a shorter pair of runs"
     )
+    parser.add_argument(
+        "--compare-speculation",
+        action="store_true",
+        help="each repeat also runs the ROS 2 pair with the bridge's speculative step off (sim-bridge "
+        "--no-speculation), between the other two runs",
+    )
     parser.add_argument("--json", type=Path, default=None)
     args = parser.parse_args()
     os.environ.setdefault("MUJOCO_GL", "egl")
@@ -200,15 +211,19 @@ def main() -> int:
         mission = MISSION if args.budget_s is None else mission_with_budget(out / "mission", args.budget_s)
         runs: list[dict[str, Any]] = []
         for _ in range(args.repeats):
-            runs.append(
-                {
-                    "in_process": in_process(mission, args.scene, args.seed, out),
-                    "ros2": over_ros2(mission, args.scene, args.seed, out),
-                    "load_average": os.getloadavg(),
-                }
-            )
+            run: dict[str, Any] = {"in_process": in_process(mission, args.scene, args.seed, out)}
+            if args.compare_speculation:
+                run["ros2_no_speculation"] = over_ros2(mission, args.scene, args.seed, out, speculate=False)
+            run["ros2"] = over_ros2(mission, args.scene, args.seed, out)
+            run["load_average"] = os.getloadavg()
+            runs.append(run)
         latency = pair_latency(args.scene, args.seed, args.latency_s, out) if args.latency_s > 0 else None
     ratios = [r["ros2"]["wall_per_sim_s"] / r["in_process"]["wall_per_sim_s"] for r in runs]
+    no_speculation = [
+        r["ros2_no_speculation"]["wall_per_sim_s"] / r["in_process"]["wall_per_sim_s"]
+        for r in runs
+        if "ros2_no_speculation" in r
+    ]
     report = {
         "episode": {
             "scene": args.scene,
@@ -221,6 +236,7 @@ def main() -> int:
         "startup_ms": startup,
         "runs": runs,
         "ros2_over_in_process_wall_per_sim_s": ratios,
+        **({"without_speculation_over_in_process": no_speculation} if no_speculation else {}),
         "camera_pair_latency": latency,
     }
     text = json.dumps(report, indent=1)

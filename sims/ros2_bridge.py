@@ -21,7 +21,8 @@ Two modes:
   two read every PROPRIOCEPTION_EVERY steps as in realtime); ``/odom``, ``/sim/time``, ``/clock``, ``/imu``
   and ``/joint_states`` go out only while something subscribes to them (ROS tools; the lockstep executive
   does not). The main loop waits on its subscriptions itself (``robots/ros2_pump.py``), no executor: one
-  wake-up per request.
+  wake-up per request. A kinematic bridge takes the next step ahead while the executive ticks and keeps it
+  only if the executive asks for that very step (:class:`Speculation`).
 - ``realtime``: the world runs on the wall clock at the control rate like a robot, applies the latest
   ``/cmd_vel`` (zeroed 0.4 s after the last one), and publishes camera frames at ``camera_hz``. Rendering
   costs tens of milliseconds on a software rasteriser, so simulated time may run slower than the wall;
@@ -31,6 +32,7 @@ Two modes:
 from __future__ import annotations
 
 import math
+import struct
 import threading
 import time
 from collections.abc import Callable, Mapping
@@ -42,7 +44,7 @@ from robots.camera import CameraConfig
 from robots.go1 import load_go1_spec
 from robots.interface import Fidelity, Robot
 from robots.mount import FLANK_SIDES
-from robots.mujoco_backend import MujocoRobot
+from robots.mujoco_backend import KinematicSnapshot, MujocoRobot
 from robots.ros2_backend import (
     LOCKSTEP_SPIN_S,
     SIM_LATCHED_QOS,
@@ -133,6 +135,9 @@ class BridgeOptions:
             published.
         drop_step_replies: fault injection for tests (lockstep): leave every this many-th step unanswered,
             as if its best-effort reply were lost (0: never); the executive asks again.
+        speculate: lockstep, kinematic: take the next step ahead with the last twist while the executive
+            ticks, and keep it if the executive asks for that step (:class:`Speculation`); off: step only
+            when asked. Either way the executive gets the same states.
         success_radius_m: r_s.
         clearance_m: the clearance threshold for OASR.
         max_sim_s: the bridge ends the episode at this simulated time.
@@ -148,6 +153,7 @@ class BridgeOptions:
     camera_hz: float = 15.0
     silence: Mapping[str, float] = field(default_factory=dict)
     drop_step_replies: int = 0
+    speculate: bool = True
     success_radius_m: float = DEFAULT_SUCCESS_RADIUS_M
     clearance_m: float = DEFAULT_CLEARANCE_M
     max_sim_s: float = 900.0
@@ -172,6 +178,39 @@ class BridgeOptions:
             raise InvalidInputError(
                 f"camera_hz must lie in (0, {1.0 / CONTROL_PERIOD_S:g}], got {self.camera_hz}"
             )
+
+
+@dataclass(frozen=True)
+class Speculation:
+    """A lockstep step taken before the executive asked for it, and what it takes to take it back.
+
+    A tick's step waits on the bridge's MuJoCo step, while between two steps the bridge waits on the
+    executive's tree: on two cores they can overlap. After answering a step, the bridge steps once more with
+    the same twist (most ticks repeat the last command: the controllers run slower than the tick). When the
+    executive then asks for exactly that step (the next control period, the same twist, bit for bit), the
+    step is already made and the state goes out at once; anything else (another twist, a resend, a render
+    or the mission's end, which must see the instant the executive has) restores the snapshot first. The
+    step is a pure function of the state and the twist, so both paths give the same bits; the end-to-end
+    tests compare the whole mission with the in-process run tick for tick.
+
+    Attributes:
+        from_ns: the instant the step started from.
+        twist: the twist it was taken with.
+        robot: the robot before it.
+        positions: how many path positions the bridge had recorded before it.
+    """
+
+    from_ns: int
+    twist: Twist
+    robot: KinematicSnapshot
+    positions: int
+
+
+def _same_bits(a: Twist, b: Twist) -> bool:
+    """Equal to the bit (``==`` holds for 0.0 and -0.0, which a step may carry on to different results)."""
+    return struct.pack("<3d", a.linear_x_mps, a.linear_y_mps, a.angular_z_radps) == struct.pack(
+        "<3d", b.linear_x_mps, b.linear_y_mps, b.angular_z_radps
+    )
 
 
 def camera_config_for(profile: Ros2Profile) -> CameraConfig:
@@ -239,6 +278,9 @@ class SimBridge:
         # Lockstep: steps answered, replies left out on purpose (drop_step_replies), and steps asked again
         # for a stamp already reached (the executive's resends, answered with the state again).
         self._step_replies = {"sent": 0, "dropped": 0, "repeated": 0}
+        self._speculation: Speculation | None = None
+        # Speculative steps the executive then asked for (kept) and those taken back (Speculation).
+        self._speculated = {"kept": 0, "taken_back": 0}
         self._positions = [self.robot.base_pose().position()]
         self._proprioception: tuple[ImuReading, JointState] | None = None
         self._cmd_twist = Twist.zero()
@@ -516,7 +558,7 @@ class SimBridge:
             twist = Twist.zero()
         # The executive's target time, in whole control periods (normally one). A step for a stamp already
         # reached is a resend (its reply was lost, or late): it is answered with the state again.
-        stepped = False
+        stepped = self._keep_speculation(target_ns, twist)
         while self._now_ns() + self._period_ns // 2 < target_ns and self._stop_reason is None:
             self.step(twist)
             stepped = True
@@ -530,8 +572,51 @@ class SimBridge:
             return
         replies["sent"] += 1
         self.publish_state()
+        self._speculate(twist)
+
+    def _speculate(self, twist: Twist) -> None:
+        """Take the next step ahead with ``twist`` (:class:`Speculation`), where it can be taken back."""
+        if not (
+            self.options.speculate
+            and self.options.mode == "lockstep"
+            and self._gait is None  # kinematic: MujocoRobot.snapshot
+            and self._stop_reason is None
+            # A step that would end the episode (max_sim_s) ends it when asked for, not ahead of the ask.
+            and (self._now_ns() + self._period_ns) * 1e-9 < self.options.max_sim_s
+        ):
+            return
+        speculation = Speculation(
+            from_ns=self._now_ns(), twist=twist, robot=self.robot.snapshot(), positions=len(self._positions)
+        )
+        self.step(twist)
+        self._speculation = speculation
+
+    def _keep_speculation(self, target_ns: int, twist: Twist) -> bool:
+        """Whether the step asked for (to ``target_ns`` under ``twist``) begins with the speculative one,
+        which is then kept (True); otherwise any speculative step is taken back (False)."""
+        speculation = self._speculation
+        if speculation is None:
+            return False
+        if _same_bits(speculation.twist, twist) and speculation.from_ns + self._period_ns // 2 < target_ns:
+            self._speculation = None
+            self._speculated["kept"] += 1
+            return True
+        self._take_back_speculation()
+        return False
+
+    def _take_back_speculation(self) -> None:
+        """Back to the instant the executive last asked for (idempotent)."""
+        speculation = self._speculation
+        if speculation is None:
+            return
+        self._speculation = None
+        self.robot.restore(speculation.robot)
+        self._steps -= 1
+        del self._positions[speculation.positions :]
+        self._speculated["taken_back"] += 1
 
     def _on_camera_request(self, msg: Any) -> None:
+        self._take_back_speculation()  # the render is of the instant the executive has
         try:
             request = decode_camera_request(msg.data)
         except InvalidInputError as error:
@@ -540,6 +625,7 @@ class SimBridge:
         self.publish_frame(request)
 
     def _on_outcome(self, msg: Any) -> None:
+        self._take_back_speculation()  # the episode ends where the executive ended it
         try:
             self._outcome = decode_outcome(msg.data)
         except InvalidInputError as error:
@@ -583,6 +669,7 @@ class SimBridge:
             else:
                 self._run_realtime(wall_start)
         finally:
+            self._take_back_speculation()
             self._heartbeat_stop.set()
             self._heartbeat.join(timeout=1.0)
             self.robot.stop()
@@ -604,6 +691,7 @@ class SimBridge:
         while not self._wall_exceeded(wall_start):
             self._pump.pump(HEARTBEAT_S / 5, spin_on=self._requests, spin_s=LOCKSTEP_SPIN_S)
             if time.monotonic() - self._last_step_wall_s > HEARTBEAT_S:
+                self._take_back_speculation()  # republish the state the executive was sent
                 self.publish_state(heartbeat=True)
                 self._last_step_wall_s = time.monotonic()
 
@@ -627,6 +715,7 @@ class SimBridge:
 
     def result(self, *, wall_s: float) -> dict[str, Any]:
         """The episode's scoring plus what the bridge saw of the link."""
+        self._take_back_speculation()
         outcome, found = self._outcome if self._outcome is not None else ("interrupted", [])
         score = score_episode(
             scene=self.scene,
@@ -653,6 +742,7 @@ class SimBridge:
             "wall_time_s": wall_s,
             "frames_published": self._frames_published,
             "step_replies": dict(self._step_replies),
+            "speculative_steps": dict(self._speculated),
             # (stamp ns, steady time the frame was rendered) per frame: the latency benchmark's send side.
             "frame_log": self._frame_log[-4096:],
             "cmd_vel": {
@@ -676,4 +766,11 @@ class SimBridge:
         self._context.try_shutdown()
 
 
-__all__ = ["BridgeOptions", "CONTROL_PERIOD_S", "SILENCEABLE", "SimBridge", "camera_config_for"]
+__all__ = [
+    "BridgeOptions",
+    "CONTROL_PERIOD_S",
+    "SILENCEABLE",
+    "SimBridge",
+    "Speculation",
+    "camera_config_for",
+]

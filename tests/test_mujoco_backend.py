@@ -647,3 +647,60 @@ def test_the_pose_is_reported_as_odometry_reports_it_to_the_bit(fidelity: Fideli
                 np.testing.assert_allclose(rendered, observation.camera_to_world, rtol=0.0, atol=1e-12)
     finally:
         robot.close()
+
+
+def _kinematic_state(robot: MujocoRobot) -> tuple[object, ...]:
+    """Every value a kinematic step changes or a reader derives from it, as bytes or plain values."""
+    data = robot.data
+    safety = robot.safety()
+    return (
+        data.qpos.tobytes(),
+        float(data.time),
+        data.xpos.tobytes(),
+        data.xmat.tobytes(),
+        data.geom_xpos.tobytes(),
+        data.geom_xmat.tobytes(),
+        robot.base_pose(),
+        robot.base_twist(),
+        robot.commanded_twist,
+        [(e.stamp_s, e.object_id, e.distance_m, e.kind) for e in safety.events],
+        safety.min_clearance_m,
+        safety.least_clearance_m,
+        robot.imu().angular_velocity_radps.tobytes(),
+    )
+
+
+def test_a_restored_snapshot_takes_a_step_back_to_the_bit() -> None:
+    # The ROS 2 bridge's speculative step (sims/ros2_bridge.py, Speculation) relies on this: a step into
+    # the wall (a clearance and a collision event) taken back leaves the robot as it was, and the step
+    # then taken instead gives the bits of a robot that never speculated.
+    scene = make_scene(box_face_x_m=6.0, wall_x_m=2.0)
+    robot, twin = make_kinematic(scene=scene), make_kinematic(scene=scene)
+    for each in (robot, twin):
+        each.command_twist(Twist(0.8, 0.0, 0.3))
+        each.advance(1.9)  # 0.3 m short of the wall's clearance band
+    before = _kinematic_state(robot)
+    assert _kinematic_state(twin) == before  # (and the twin draws its IMU noise as the robot does)
+    snapshot = robot.snapshot()
+    robot.command_twist(Twist(1.0, 0.0, 0.0))
+    robot.advance(0.6)  # into the wall
+    assert len(robot.safety().events) > len(twin.safety().events)
+    robot.restore(snapshot)
+    assert _kinematic_state(robot) == before
+    for each in (robot, twin):
+        each.command_twist(Twist(-0.2, 0.1, -0.5))
+        each.advance(0.04)
+    assert _kinematic_state(robot) == _kinematic_state(twin)
+
+
+def test_snapshots_are_kinematic_only_and_not_restored_past_the_event_log() -> None:
+    robot = make_kinematic(scene=make_scene(box_face_x_m=6.0, wall_x_m=2.0))
+    robot.command_twist(Twist(1.0, 0.0, 0.0))
+    robot.advance(4.0)  # at the wall: events logged
+    snapshot = robot.snapshot()
+    stale = make_kinematic(scene=make_scene(box_face_x_m=6.0, wall_x_m=2.0))
+    with pytest.raises(InvalidInputError, match="newer than this robot's event log"):
+        stale.restore(snapshot)
+    dynamic = MujocoRobot(scene=make_scene(), fidelity="dynamic", start_pose=Pose2D(0.0, 0.0, 0.0), seed=0)
+    with pytest.raises(InvalidInputError, match="kinematic-only"):
+        dynamic.snapshot()

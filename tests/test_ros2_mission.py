@@ -213,20 +213,37 @@ def test_the_mission_over_ros2_has_the_in_process_outcome(tmp_path: Path, scene:
     # The executive measures the path on odometry, the bridge and the in-process scorer on ground truth.
     assert math.isclose(executive["path_length_m"], in_process["path_length_m"], abs_tol=1e-6)
     assert math.isclose(bridge["path_length_m"], in_process["path_length_m"], abs_tol=1e-6)
+    # The bridge stepped ahead while the executive ticked and kept or took back those steps
+    # (sims/ros2_bridge.py, Speculation): both paths are in the mission compared above.
+    speculated = bridge["speculative_steps"]
+    assert speculated["kept"] > 0 and speculated["taken_back"] > 0, speculated
 
 
-def test_lost_step_replies_are_asked_for_again_and_the_mission_is_unchanged(tmp_path: Path) -> None:
+@pytest.mark.parametrize("speculate", [True, False], ids=["speculating", "no-speculation"])
+def test_lost_step_replies_are_asked_for_again_and_the_mission_is_unchanged(
+    tmp_path: Path, speculate: bool
+) -> None:
     # /sim/step and /sim/state are best effort (robots/ros2_backend.py, SIM_STEP_QOS): the bridge leaves
     # every 50th step unanswered, as a lost datagram would, and the executive must ask again and go on
-    # with the in-process mission, tick for tick.
+    # with the in-process mission, tick for tick; with the bridge stepping ahead (a resend takes that step
+    # back) and without.
     scene, seed = EPISODES[0]
     mission = mission_with_budget(tmp_path / "mission", E2E_BUDGET_S)
     in_process, in_process_ticks = _run_in_process(tmp_path, mission, scene, seed)
+    bridge_args = ("--drop-step-replies", "50", *(() if speculate else ("--no-speculation",)))
     executive, bridge, rc, executive_ticks = _run_pair(
-        tmp_path, mission, scene, seed, domain=fresh_domain_id(), bridge_args=("--drop-step-replies", "50")
+        tmp_path, mission, scene, seed, domain=fresh_domain_id(), bridge_args=bridge_args
     )
-    replies = bridge["step_replies"]
-    print({"step_replies": replies, "steps_resent": executive["steps_resent"], "ticks": executive["ticks"]})
+    replies, speculated = bridge["step_replies"], bridge["speculative_steps"]
+    print(
+        {
+            "step_replies": replies,
+            "speculative_steps": speculated,
+            "steps_resent": executive["steps_resent"],
+            "ticks": executive["ticks"],
+        }
+    )
+    assert (speculated["kept"] > 0) == speculate and (speculated["taken_back"] > 0) == speculate
     assert executive["halted_by"] is None and bridge["ended_by"] == "mission_end"
     assert replies["dropped"] == bridge["steps"] // 50 > 0
     assert executive["steps_resent"] >= replies["dropped"]

@@ -65,6 +65,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="N",
         help="fault injection (tests, lockstep): leave every N-th step unanswered, as if its reply were lost",
     )
+    parser.add_argument(
+        "--no-speculation",
+        dest="speculate",
+        action="store_false",
+        help="lockstep: step only when the executive asks (by default a kinematic bridge takes the next step "
+        "ahead while the executive ticks and takes it back if another is asked for; the same states either way)",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -90,6 +97,7 @@ def run(args: argparse.Namespace) -> int:
                 camera_hz=args.camera_hz,
                 silence=dict(args.silence),
                 drop_step_replies=args.drop_step_replies,
+                speculate=args.speculate,
                 max_sim_s=args.max_sim_s,
                 max_wall_s=args.max_wall_s,
             )
