@@ -38,11 +38,30 @@ def page_statuses(page: Any) -> dict[str, str]:
     )
 
 
+#: What the view's pages say of their own state (``window.semexpView``), for a wait that timed out.
+_VIEW_STATE = """() => {
+  const v = window.semexpView;
+  return v ? {done: v.done, ticks: v.ticks, shownTick: v.shownTick, rerun: v.rerun} : null;
+}"""
+
+
 def wait_for(page: Any, expression: str, timeout_s: float) -> Any:
     """Wait until ``expression`` is truthy in the page; its value. (A function, not a string to evaluate:
-    the page's content security policy forbids eval, and Playwright calls a function without it.)"""
+    the page's content security policy forbids eval, and Playwright calls a function without it.)
+
+    A wait that times out fails naming the expression and what the page said of its state then (Playwright's
+    own error names neither, which left a rare failure of the replay test unexplained; docs/viewer.md)."""
+    from playwright.sync_api import TimeoutError as PlaywrightTimeoutError
+
     function = f"() => ({expression})"
-    page.wait_for_function(function, timeout=timeout_s * 1000.0)
+    try:
+        page.wait_for_function(function, timeout=timeout_s * 1000.0)
+    except PlaywrightTimeoutError:
+        try:
+            state: Any = page.evaluate(_VIEW_STATE)
+        except Exception as error:  # the page itself may be gone: say so rather than mask the timeout
+            state = f"unreadable ({error})"
+        pytest.fail(f"waited {timeout_s:g} s for `{expression}`; the page's view state then: {state}")
     return page.evaluate(function)
 
 

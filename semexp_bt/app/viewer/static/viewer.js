@@ -22,7 +22,8 @@ const view = {
   index: -1,            // the record shown
   following: true,
   done: false,
-  rerun: { ready: false, timeline: "tick", time: null, events: 0, error: null, pending: null, sought: null, resends: 0 },
+  rerun: { ready: false, timeline: "tick", time: null, events: 0, error: null, pending: null, sought: null, resends: 0,
+           unanswered: 0, retryTimer: null },
   rows: new Map(),      // node name -> {li, ms, feedback, written}
 };
 window.semexpView = {
@@ -172,10 +173,24 @@ function seekWorldFromTree(tick) {
   sendWorldTime(tick);
 }
 
-function sendWorldTime(tick) {
+// Rerun's web viewer now and then takes a time command and reports nothing at all (session 29: one
+// replay test in seven stayed at the old time for 30 s, no event after the command). A command after which
+// no event of Rerun's comes within SEEK_SILENCE_MS is sent again, at most SEEK_RESENDS times; any event
+// hands the matter to onWorldEvent.
+const SEEK_SILENCE_MS = 2000;
+
+function sendWorldTime(tick, unanswered = 0) {
   const handlers = widget.listeners.get("msg:custom") || [];
   const message = { type: "time_ctrl", timeline: "tick", sequence: String(tick), play: false };
   for (const handler of handlers) handler(message, []);
+  clearTimeout(view.rerun.retryTimer);
+  if (unanswered >= SEEK_RESENDS) return;
+  const events = view.rerun.events;
+  view.rerun.retryTimer = setTimeout(() => {
+    if (view.rerun.events !== events) return;
+    view.rerun.unanswered += 1;
+    sendWorldTime(tick, unanswered + 1);
+  }, SEEK_SILENCE_MS);
 }
 
 function onWorldEvent(message) {
