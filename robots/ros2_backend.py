@@ -1061,13 +1061,15 @@ class Ros2Robot(Robot):
 
         The executor's shutdown and its thread's end share one deadline, :data:`CLOSE_WAIT_S`, or after a
         halt :data:`HALTED_CLOSE_WAIT_S`: a node the executor thread still holds is left to the process's
-        end rather than destroyed.
+        end rather than destroyed. After a halt the node's and the context's teardown run on a thread of
+        their own, waited for until that deadline only: with a peer gone, Fast DDS can hold them too.
         """
         if self._closed:
             return
         with self._lock:
             self._command = Twist.zero()
-            wait_s = CLOSE_WAIT_S if self._halt is None else HALTED_CLOSE_WAIT_S
+            halted = self._halt is not None
+        wait_s = HALTED_CLOSE_WAIT_S if halted else CLOSE_WAIT_S
         for _ in range(CLOSING_ZERO_COMMANDS):
             self._publish_twist(Twist.zero())
         self._closed = True
@@ -1076,9 +1078,20 @@ class Ros2Robot(Robot):
         deadline = time.monotonic() + wait_s
         self._executor.shutdown(timeout_sec=wait_s / 2.0)
         self._spinner.join(timeout=max(0.0, deadline - time.monotonic()))
-        if not self._spinner.is_alive():  # a node still in the executor's hands would block destroy_node
-            self.node.destroy_node()
-        self._context.try_shutdown()
+        # A node still in the executor's hands would block destroy_node.
+        node_free = not self._spinner.is_alive()
+
+        def end_ros() -> None:
+            if node_free:
+                self.node.destroy_node()
+            self._context.try_shutdown()
+
+        if not halted:
+            end_ros()
+            return
+        ender = threading.Thread(target=end_ros, name="ros2-robot-end", daemon=True)
+        ender.start()
+        ender.join(timeout=max(0.0, deadline - time.monotonic()))
 
 
 __all__ = ["Ros2Error", "Ros2Robot", "RobotHalted", "import_rclpy", "qos_profile", "ros_context"]
