@@ -575,10 +575,10 @@ class SimBridge:
         self._speculate(twist)
 
     def _speculate(self, twist: Twist) -> None:
-        """Take the next step ahead with ``twist`` (:class:`Speculation`), where it can be taken back."""
+        """Take the next step ahead with ``twist`` (:class:`Speculation`), where it can be taken back (called
+        from the lockstep step handler only)."""
         if not (
             self.options.speculate
-            and self.options.mode == "lockstep"
             and self._gait is None  # kinematic: MujocoRobot.snapshot
             and self._stop_reason is None
             # A step that would end the episode (max_sim_s) ends it when asked for, not ahead of the ask.

@@ -23,7 +23,7 @@ const view = {
   following: true,
   done: false,
   rerun: { ready: false, timeline: "tick", time: null, events: 0, error: null, pending: null, sought: null, resends: 0,
-           unanswered: 0, retryTimer: null },
+           unanswered: 0 },
   rows: new Map(),      // node name -> {li, ms, feedback, written}
 };
 window.semexpView = {
@@ -178,15 +178,16 @@ function seekWorldFromTree(tick) {
 // no event of Rerun's comes within SEEK_SILENCE_MS is sent again, at most SEEK_RESENDS times; any event
 // hands the matter to onWorldEvent.
 const SEEK_SILENCE_MS = 2000;
+let seekRetry = null;  // the pending resend's timer
 
 function sendWorldTime(tick, unanswered = 0) {
   const handlers = widget.listeners.get("msg:custom") || [];
   const message = { type: "time_ctrl", timeline: "tick", sequence: String(tick), play: false };
   for (const handler of handlers) handler(message, []);
-  clearTimeout(view.rerun.retryTimer);
+  clearTimeout(seekRetry);
   if (unanswered >= SEEK_RESENDS) return;
   const events = view.rerun.events;
-  view.rerun.retryTimer = setTimeout(() => {
+  seekRetry = setTimeout(() => {
     if (view.rerun.events !== events) return;
     view.rerun.unanswered += 1;
     sendWorldTime(tick, unanswered + 1);
