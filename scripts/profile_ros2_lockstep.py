@@ -11,7 +11,8 @@ name, and reads each thread's CPU time from
 ``/proc`` at the end (the tick thread, rclpy's executor thread, Fast DDS's own threads). It prints, per
 process, each call's count, total and mean, and the per-tick share (total / ticks), as JSON.
 
-The timers wrap methods, so the figures include the wrappers' own cost (about 1 us a call).
+The timers wrap methods, so the figures include the wrappers' own cost (about 1 us a call). The bridge's
+``step`` counts its speculative steps too (``_speculate``; ``--no-speculation`` turns them off).
 """
 
 from __future__ import annotations
@@ -69,6 +70,8 @@ BRIDGE_CALLS = (
         f"sims.ros2_bridge:SimBridge.{name}"
         for name in (
             "_on_step",
+            "_speculate",
+            "_take_back_speculation",
             "step",
             "publish_state",
             "publish_frame",
@@ -181,6 +184,11 @@ def main() -> int:
     parser.add_argument("--scene", default="showroom")
     parser.add_argument("--seed", type=int, default=9)
     parser.add_argument("--budget-s", type=float, default=60.0)
+    parser.add_argument(
+        "--no-speculation",
+        action="store_true",
+        help="the bridge steps only when asked (sim-bridge --no-speculation)",
+    )
     parser.add_argument("--json", type=Path, default=None)
     args = parser.parse_args()
     os.environ.setdefault("MUJOCO_GL", "egl")
@@ -190,7 +198,7 @@ def main() -> int:
         bridge_dump, exec_dump, exec_json = out / "bridge.json", out / "exec.json", out / "record.json"
         run_bridge_and_executive(
             _wrapped(BRIDGE_CALLS, bridge_dump, "sim-bridge", "--scene", args.scene, "--seed", str(args.seed),
-                     "--max-wall-s", "900"),
+                     "--max-wall-s", "900", *(("--no-speculation",) if args.no_speculation else ())),
             _wrapped(EXECUTIVE_CALLS, exec_dump, "run", str(mission), "--backend", "ros2", "--seed",
                      str(args.seed), "--relevance", "lexical", "--json", str(exec_json)),
         )  # fmt: skip
@@ -198,6 +206,7 @@ def main() -> int:
         ticks = record["ticks"]
         report = {
             "episode": {"scene": args.scene, "seed": args.seed, "budget_s": args.budget_s},
+            "speculation": not args.no_speculation,
             "outcome": record["outcome"],
             "ticks": ticks,
             "mission_wall_s": record["mission_wall_s"],
