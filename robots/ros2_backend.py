@@ -43,11 +43,11 @@ has said the mode, so in simulation the sensor subscriptions are made then.
 from __future__ import annotations
 
 import collections
+import dataclasses
 import math
 import threading
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
 from typing import Any, NoReturn
 
 import numpy as np
@@ -89,11 +89,14 @@ from robots.ros2_sim_protocol import (
     STEP_TOPIC,
     TIME_TOPIC,
     CameraRequest,
+    Outcome,
     SimState,
     SimulationInfo,
     decode_simulation_info,
     decode_state,
     encode_camera_request,
+    encode_outcome,
+    same_twist_bits,
 )
 from semexp_bt.core.types import (
     FloatArray,
@@ -209,7 +212,7 @@ def ros_context(rclpy: Any) -> Any:
     return context
 
 
-@dataclass
+@dataclasses.dataclass
 class _Stamped:
     """A message with its stamp (ns), the steady time it arrived, and what it converted to once read
     (a tick reads the IMU twice, the guard and ``safety``; a message does not change after it arrived)."""
@@ -294,6 +297,11 @@ class Ros2Robot(Robot):
         self._halt: RobotHalted | None = None
         self._command = Twist.zero()
         self._target_ns: int | None = None
+        # Lockstep: the step last asked for (its stamp and twist): only a state made by that step is its
+        # reply (SimState.step_twist); a state for a later instant is the bridge's step ahead, kept aside.
+        self._asked: tuple[int, Twist] | None = None
+        self._silent_wait_s = 0.0
+        self._ahead: tuple[SimState, npt.NDArray[np.float64], Any] | None = None
         self._epoch_ns = 0
         self._bridge_heard_s = time.monotonic()
         self._simulation_info: SimulationInfo | None = None
@@ -321,6 +329,8 @@ class Ros2Robot(Robot):
         self._state_subscription: Any = None
         #: Lockstep: steps sent again for want of an answer (LOCKSTEP_RESEND_S).
         self.steps_resent = 0
+        #: Lockstep: steps whose state the bridge had sent ahead, taken without a wait.
+        self.steps_taken_ahead = 0
         subscribe = self.node.create_subscription
         if not simulation:
             self._subscribe_sensors(subscribe, lockstep=False)
@@ -513,12 +523,24 @@ class Ros2Robot(Robot):
             self._halt_now(STATE_TOPIC, f"malformed state ({error})")
             return
         with self._lock:
+            asked = self._asked
+            if asked is None or (state.stamp_ns == asked[0] and same_twist_bits(state.step_twist, asked[1])):
+                self._take_state_locked(state, transform, msg)
+            else:  # the bridge spoke, if not this step's answer
+                self._bridge_heard_s = time.monotonic()
+                if state.stamp_ns > asked[0]:
+                    self._ahead = (state, transform, msg)
+                # else: a state for an instant already passed, or sent ahead under another twist.
+
+    def _take_state_locked(self, state: SimState, transform: npt.NDArray[np.float64], msg: Any) -> None:
+        """Lockstep: ``state`` is the instant the executive is at (call with the lock held)."""
+        if not (self._odom and self._odom[-1][0] == state.stamp_ns):  # a resend's answer, once
             self._odom.append((state.stamp_ns, transform, state.twist))
-            self._sim_time_s = state.sim_time_s
-            self._record("odom", state.stamp_ns, msg)
-            self._record("imu", state.stamp_ns, state)
-            self._record("joint_states", state.stamp_ns, state)
-            self._lock.notify_all()
+        self._sim_time_s = state.sim_time_s
+        self._record("odom", state.stamp_ns, msg)
+        self._record("imu", state.stamp_ns, state)
+        self._record("joint_states", state.stamp_ns, state)
+        self._lock.notify_all()
 
     def _on_clock(self, msg: Any) -> None:
         with self._lock:
@@ -668,10 +690,30 @@ class Ros2Robot(Robot):
             self._wait_for_time(target)
 
     def _step_to(self, target_ns: int, command: Twist) -> None:
+        """Lockstep: step the bridge to ``target_ns`` under ``command``. If the bridge already sent that
+        step's state ahead (sims/ros2_bridge.py, ``Speculation``), take it and go on: the ask only tells
+        the bridge to keep the step. Else wait for the reply."""
+        self._pump.drain((self._state_subscription,))  # what came while the tree ticked
         msg = self._step_msg
         fill_stamp(msg.header.stamp, target_ns * 1e-9)
         fill_twist(msg.twist, command)
+        with self._lock:
+            self._raise_if_halted()
+            self._asked = (target_ns, command)
+            ahead, self._ahead = self._ahead, None
+            taken = (
+                ahead is not None
+                and ahead[0].stamp_ns == target_ns
+                and same_twist_bits(ahead[0].step_twist, command)
+            )
+            if taken:
+                assert ahead is not None
+                self._take_state_locked(*ahead)
+                self.steps_taken_ahead += 1
+                self._target_ns = target_ns
         self._step_pub.publish(msg)
+        if taken:
+            return
         deadline = max(self.profile.deadline_of("odom"), LOCKSTEP_REPLY_MIN_S)
         with self._lock:
             arrived = self._await_bridge(
@@ -684,7 +726,9 @@ class Ros2Robot(Robot):
             )
             if not arrived:
                 self._halt_locked(
-                    STATE_TOPIC, f"the simulation bridge fell silent for {deadline:.2f} s during a step"
+                    STATE_TOPIC,
+                    f"the simulation bridge fell silent for {deadline:.2f} s during a step "
+                    f"(waited {self._silent_wait_s:.2f} s)",
                 )
             self._target_ns = target_ns
 
@@ -706,7 +750,10 @@ class Ros2Robot(Robot):
         ``resend``: sends the request again, every :data:`LOCKSTEP_RESEND_S` without an answer.
 
         A busy bridge (a render on a loaded machine) is slow, not gone: the world is paused meanwhile.
+        The wait's own length is kept for the halt's message (:attr:`_silent_wait_s`): a wait shorter than
+        the silence means the tick came to it late.
         """
+        began = time.monotonic()
         while True:
             silent_s = time.monotonic() - self._bridge_heard_s
             if self._wait_locked(
@@ -718,6 +765,7 @@ class Ros2Robot(Robot):
                 self._raise_if_halted()
                 return True
             if time.monotonic() - self._bridge_heard_s >= deadline_s:
+                self._silent_wait_s = time.monotonic() - began
                 return False
 
     def _wait_locked(
@@ -852,7 +900,7 @@ class Ros2Robot(Robot):
             )
         seen = {stream: self._arrivals[stream] for stream in wanted}
         msg = self._string_msg_type()
-        msg.data = encode_camera_request(request)
+        msg.data = encode_camera_request(dataclasses.replace(request, at_ns=now))
         self._request_pub.publish(msg)
         image = SIDE_DEPTH_STREAMS[0] if request.kind == "side" else "depth_image"
         deadline = max(self.profile.deadline_of(image), LOCKSTEP_REPLY_MIN_S)
@@ -860,12 +908,16 @@ class Ros2Robot(Robot):
         def arrived() -> bool:
             return all(self._arrivals[s] > seen[s] and self._latest[s].stamp_ns == now for s in wanted)
 
-        if not self._await_bridge(arrived, deadline):
+        # The step ask is sent again meanwhile: a render of an instant the bridge has not reached waits for
+        # it there (the executive may have taken that step's state ahead of a lost ask).
+        if not self._await_bridge(arrived, deadline, resend=self._resend_step):
             missing = [s for s in wanted if not (self._arrivals[s] > seen[s])]
             stream = missing[0] if missing else "depth_image"
             topic = SEGMENTATION_TOPIC if stream == "segmentation" else self.profile.topic_of(stream)
             self._halt_locked(
-                topic, f"the simulation bridge fell silent for {deadline:.2f} s during a render"
+                topic,
+                f"the simulation bridge fell silent for {deadline:.2f} s during a render "
+                f"(waited {self._silent_wait_s:.2f} s)",
             )
         self._raise_if_halted()
 
@@ -1045,14 +1097,19 @@ class Ros2Robot(Robot):
             self._command = Twist.zero()
         self._publish_twist(Twist.zero())
 
-    def report_outcome(self, payload: str, *, timeout_s: float = 2.0) -> bool:
-        """Simulation: publish the mission's outcome on ``/sim/outcome`` and wait until the bridge has it."""
+    def report_outcome(
+        self, outcome: str, found_objects: Sequence[dict[str, Any]], *, timeout_s: float = 2.0
+    ) -> bool:
+        """Simulation: publish the mission's outcome on ``/sim/outcome`` (with the instant the executive
+        ended at) and wait until the bridge has it."""
         if self._outcome_pub is None:
             return False
         from rclpy.duration import Duration
 
+        with self._lock:
+            at_ns = self._now_ns()
         msg = self._string_msg_type()
-        msg.data = payload
+        msg.data = encode_outcome(Outcome(outcome, list(found_objects), at_ns))
         self._outcome_pub.publish(msg)
         return bool(self._outcome_pub.wait_for_all_acked(Duration(seconds=timeout_s)))
 

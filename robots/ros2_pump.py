@@ -114,6 +114,21 @@ class SubscriptionPump:
         return ran
 
     @staticmethod
+    def drain(subscriptions: Sequence[Any]) -> int:
+        """Take every message waiting on ``subscriptions`` (some of this pump's) without blocking, running
+        each one's callback here; how many ran."""
+        ran = 0
+        for subscription in subscriptions:
+            while True:
+                with subscription.handle:
+                    taken = subscription.handle.take_message(subscription.msg_type, subscription.raw)
+                if taken is None:
+                    break
+                subscription.callback(taken[0])
+                ran += 1
+        return ran
+
+    @staticmethod
     def _poll(subscriptions: Sequence[Any], spin_s: float) -> int:
         """Take from ``subscriptions`` until one yields a message (its callback runs here; 1) or
         ``spin_s`` has passed (0), yielding the core between rounds."""

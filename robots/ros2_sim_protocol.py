@@ -7,11 +7,11 @@ simulation has travels here, never on those:
 | --- | --- | --- | --- |
 | ``/sim/scene`` | std_msgs/String (JSON), transient local | bridge -> executive | the scene's catalogue for the perception emulator: object ids, labels, categories, roles, sizes; no positions |
 | ``/sim/step`` | geometry_msgs/TwistStamped, best effort | executive -> bridge | lockstep: step the world to ``header.stamp`` applying ``twist``; a step for a stamp already reached is answered with the state again (how a lost step or reply is made good) |
-| ``/sim/camera/request`` | std_msgs/String (JSON) | executive -> bridge | lockstep: render the camera now (``full``, or ``depth`` at pixel grids), or measure the flank cameras (``side``, at pixel grids) |
+| ``/sim/camera/request`` | std_msgs/String (JSON) | executive -> bridge | lockstep: render the camera now (``full``, or ``depth`` at pixel grids), or measure the flank cameras (``side``, at pixel grids), at the executive's instant (``at_ns``) |
 | ``/sim/camera/segmentation`` | sensor_msgs/Image 16UC1 (id + 1) | bridge -> executive | the segmentation of each full frame, stamped as the colour frame |
-| ``/sim/outcome`` | std_msgs/String (JSON), transient local | executive -> bridge | the mission's declared outcome and confirmed targets, for the bridge's scoring |
+| ``/sim/outcome`` | std_msgs/String (JSON), transient local | executive -> bridge | the mission's declared outcome and confirmed targets, and the instant it ended at, for the bridge's scoring |
 | ``/sim/time`` | std_msgs/Float64 | bridge -> executive | the simulator's clock in float seconds (``/clock`` is its nanosecond rounding); the lockstep executive's clock, so that its time comparisons are the in-process run's to the bit |
-| ``/sim/state`` | std_msgs/Float64MultiArray (:data:`STATE_FIELDS`), best effort | bridge -> executive | lockstep: after each step, the one reply: the step's stamp, the float clock, the odometry, the IMU and the joints (the values ``/odom``, ``/sim/time``, ``/imu`` and ``/joint_states`` carry), so that a step costs one message and one wake-up |
+| ``/sim/state`` | std_msgs/Float64MultiArray (:data:`STATE_FIELDS`), best effort | bridge -> executive | lockstep: after each step, the one reply: the step's stamp, the float clock, the odometry, the IMU and the joints (the values ``/odom``, ``/sim/time``, ``/imu`` and ``/joint_states`` carry), and the twist the step was made with, so that a step costs one message and one wake-up; also the next step's state, sent ahead under the same twist (the executive takes it without a wait when it asks for that step: sims/ros2_bridge.py, ``Speculation``) |
 | ``/sim/heartbeat`` | std_msgs/Header | bridge -> executive | every 0.1 s from a thread of its own: the bridge is alive, if busy (a lockstep wait halts only after the deadline passes without it) |
 
 Every other ``/sim/...`` topic is reliable. The bridge keeps the ground truth (where things are, which object is reached, collisions) to itself and
@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import array
 import json
+import struct
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any, Literal
@@ -204,6 +205,9 @@ STATE_FIELDS: tuple[str, ...] = (
     "linear_x_mps",
     "linear_y_mps",
     "angular_z_radps",
+    "step_linear_x_mps",
+    "step_linear_y_mps",
+    "step_angular_z_radps",
     "imu_orientation_w",
     "imu_orientation_x",
     "imu_orientation_y",
@@ -231,6 +235,9 @@ class SimState:
         position_m: the base's position in ``odom`` (x, y, z).
         orientation_xyzw: its orientation (a quaternion x, y, z, w, as the simulator has it).
         twist: its body twist.
+        step_twist: the command the last step was taken with (the executive takes a state for the step
+            it asks for only if it was made with that step's twist: a state sent ahead under another
+            command is not that step's).
         imu: the latest IMU reading: orientation (w, x, y, z), angular velocity, linear acceleration.
         joint_position_rad: the latest joint positions, in the actuator order.
         joint_velocity_radps: the latest joint velocities (as many as the positions).
@@ -241,6 +248,7 @@ class SimState:
     position_m: tuple[float, float, float]
     orientation_xyzw: tuple[float, float, float, float]
     twist: Twist
+    step_twist: Twist
     imu: tuple[float, ...]
     joint_position_rad: tuple[float, ...]
     joint_velocity_radps: tuple[float, ...]
@@ -258,6 +266,13 @@ class SimState:
         return JointState(
             position_rad=np.array(self.joint_position_rad), velocity_radps=np.array(self.joint_velocity_radps)
         )
+
+
+def same_twist_bits(a: Twist, b: Twist) -> bool:
+    """Equal to the bit (``==`` holds for 0.0 and -0.0, which a step may carry on to different results)."""
+    return struct.pack("<3d", a.linear_x_mps, a.linear_y_mps, a.angular_z_radps) == struct.pack(
+        "<3d", b.linear_x_mps, b.linear_y_mps, b.angular_z_radps
+    )
 
 
 def encode_state(state: SimState) -> array.array[float]:
@@ -280,6 +295,9 @@ def encode_state(state: SimState) -> array.array[float]:
             twist.linear_x_mps,
             twist.linear_y_mps,
             twist.angular_z_radps,
+            state.step_twist.linear_x_mps,
+            state.step_twist.linear_y_mps,
+            state.step_twist.angular_z_radps,
             *state.imu,
             *state.joint_position_rad,
             *state.joint_velocity_radps,
@@ -303,7 +321,7 @@ def decode_state(values: Sequence[float], *, joints: int) -> SimState:
         name = STATE_FIELDS[at] if at < len(STATE_FIELDS) else f"joint value {at - len(STATE_FIELDS)}"
         raise SimProtocolError(f"{STATE_TOPIC}: field '{name}' must be finite, got {floats[at]}")
     listed = floats.tolist()
-    stamp, sim_time, px, py, pz, qx, qy, qz, qw, vx, vy, wz = listed[:_IMU_AT]
+    stamp, sim_time, px, py, pz, qx, qy, qz, qw, vx, vy, wz, step_vx, step_vy, step_wz = listed[:_IMU_AT]
     joint_at = len(STATE_FIELDS)
     return SimState(
         stamp_ns=int(stamp),
@@ -311,6 +329,7 @@ def decode_state(values: Sequence[float], *, joints: int) -> SimState:
         position_m=(px, py, pz),
         orientation_xyzw=(qx, qy, qz, qw),
         twist=Twist(vx, vy, wz),
+        step_twist=Twist(step_vx, step_vy, step_wz),
         imu=tuple(listed[_IMU_AT:joint_at]),
         joint_position_rad=tuple(listed[joint_at : joint_at + joints]),
         joint_velocity_radps=tuple(listed[joint_at + joints :]),
@@ -320,15 +339,18 @@ def decode_state(values: Sequence[float], *, joints: int) -> SimState:
 @dataclass(frozen=True)
 class CameraRequest:
     """A lockstep render request: ``full`` (colour, depth, segmentation), ``depth`` at ``grids`` only, or
-    ``side``: the flank cameras' depth at ``grids``."""
+    ``side``: the flank cameras' depth at ``grids``. ``at_ns``: the instant the executive is at (the
+    render's stamp), which the bridge reaches first where the step's ask is still on its way (the
+    executive takes a state sent ahead without waiting for the bridge to take its ask)."""
 
     kind: FrameKind
     grids: tuple[PixelGrid, ...] | None = None
+    at_ns: int | None = None
 
 
 def encode_camera_request(request: CameraRequest) -> str:
     grids = None if request.grids is None else [[g.stride, g.offset] for g in request.grids]
-    return json.dumps({"kind": request.kind, "grids": grids})
+    return json.dumps({"kind": request.kind, "grids": grids, "at_ns": request.at_ns})
 
 
 def decode_camera_request(text: str) -> CameraRequest:
@@ -337,9 +359,10 @@ def decode_camera_request(text: str) -> CameraRequest:
     kind = _field(data, "kind", str, topic)
     if kind not in FRAME_KINDS:
         raise SimProtocolError(f"{topic}: field 'kind' must be one of {list(FRAME_KINDS)}, got {kind!r}")
+    at_ns = _instant(data, topic)
     raw = data.get("grids")
     if raw is None:
-        return CameraRequest(kind=kind)
+        return CameraRequest(kind=kind, at_ns=at_ns)
     if not isinstance(raw, list):
         raise SimProtocolError(f"{topic}: field 'grids' must be a list of [stride, offset]")
     grids: list[PixelGrid] = []
@@ -347,22 +370,48 @@ def decode_camera_request(text: str) -> CameraRequest:
         if not (isinstance(pair, list) and len(pair) == 2 and all(isinstance(v, int) for v in pair)):
             raise SimProtocolError(f"{topic}: field 'grids' must hold [stride, offset] integer pairs")
         grids.append(PixelGrid(stride=pair[0], offset=pair[1]))
-    return CameraRequest(kind=kind, grids=tuple(grids))
+    return CameraRequest(kind=kind, grids=tuple(grids), at_ns=at_ns)
 
 
-def encode_outcome(outcome: str, found_objects: Sequence[dict[str, Any]]) -> str:
+def _instant(data: dict[str, Any], topic: str) -> int | None:
+    """The optional ``at_ns`` field: the executive's instant (ns), a non-negative integer."""
+    at_ns = data.get("at_ns")
+    if at_ns is not None and (not isinstance(at_ns, int) or isinstance(at_ns, bool) or at_ns < 0):
+        raise SimProtocolError(f"{topic}: field 'at_ns' must be a non-negative integer, got {at_ns!r}")
+    return at_ns
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """The mission's declared outcome (``/sim/outcome``), for the bridge's scoring.
+
+    Attributes:
+        outcome: the episode's outcome (``success``, ``budget_exceeded``, ...).
+        found_objects: the targets the executive confirmed (each with its ``position_m``).
+        at_ns: the instant the executive ended at (as :attr:`CameraRequest.at_ns`).
+    """
+
+    outcome: str
+    found_objects: list[dict[str, Any]]
+    at_ns: int | None = None
+
+
+def encode_outcome(outcome: Outcome) -> str:
     """The ``/sim/outcome`` payload."""
-    return json.dumps({"outcome": outcome, "found_objects": list(found_objects)}, default=float)
+    return json.dumps(
+        {"outcome": outcome.outcome, "found_objects": list(outcome.found_objects), "at_ns": outcome.at_ns},
+        default=float,
+    )
 
 
-def decode_outcome(text: str) -> tuple[str, list[dict[str, Any]]]:
+def decode_outcome(text: str) -> Outcome:
     topic = OUTCOME_TOPIC
     data = _load(text, topic)
     found = _field(data, "found_objects", list, topic)
     for entry in found:
         if not isinstance(entry, dict) or "position_m" not in entry:
             raise SimProtocolError(f"{topic}: each found object needs 'position_m'")
-    return str(_field(data, "outcome", str, topic)), found
+    return Outcome(str(_field(data, "outcome", str, topic)), found, _instant(data, topic))
 
 
 __all__ = [
@@ -379,6 +428,7 @@ __all__ = [
     "STEP_TOPIC",
     "TIME_TOPIC",
     "CameraRequest",
+    "Outcome",
     "SimProtocolError",
     "SimState",
     "SimulationInfo",
@@ -387,6 +437,7 @@ __all__ = [
     "decode_simulation_info",
     "decode_state",
     "encode_camera_request",
+    "same_twist_bits",
     "encode_outcome",
     "encode_simulation_info",
     "encode_state",

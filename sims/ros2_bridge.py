@@ -32,7 +32,6 @@ Two modes:
 from __future__ import annotations
 
 import math
-import struct
 import threading
 import time
 from collections.abc import Callable, Mapping
@@ -80,11 +79,13 @@ from robots.ros2_sim_protocol import (
     TIME_TOPIC,
     BridgeMode,
     CameraRequest,
+    Outcome,
     SimState,
     decode_camera_request,
     decode_outcome,
     encode_simulation_info,
     encode_state,
+    same_twist_bits,
 )
 from robots.side_depth import SideDepthConfig
 from semexp_bt.core.metrics import DEFAULT_CLEARANCE_M, DEFAULT_SUCCESS_RADIUS_M
@@ -184,33 +185,33 @@ class BridgeOptions:
 class Speculation:
     """A lockstep step taken before the executive asked for it, and what it takes to take it back.
 
-    A tick's step waits on the bridge's MuJoCo step, while between two steps the bridge waits on the
-    executive's tree: on two cores they can overlap. After answering a step, the bridge steps once more with
-    the same twist (most ticks repeat the last command: the controllers run slower than the tick). When the
-    executive then asks for exactly that step (the next control period, the same twist, bit for bit), the
-    step is already made and the state goes out at once; anything else (another twist, a resend, a render
-    or the mission's end, which must see the instant the executive has) restores the snapshot first. The
-    step is a pure function of the state and the twist, so both paths give the same bits; the end-to-end
-    tests compare the whole mission with the in-process run tick for tick.
+    A tick's step waits on the bridge's MuJoCo step and on a round trip over DDS, while between two steps
+    the bridge waits on the executive's tree: on two cores they can overlap. After answering a step, the
+    bridge steps once more with the same twist (most ticks repeat the last command: the controllers run
+    slower than the tick) and sends that state ahead at once, tagged with the twist it was made with. When
+    the executive then asks for exactly that step (the next control period, the same twist, bit for bit),
+    it already holds the state and goes on without waiting: its ask only tells the bridge to keep the step,
+    which needs no reply. Anything else (another twist, a resend, a render or the mission's end, which must
+    see the instant the executive has) restores the snapshot first, and a state sent ahead under another
+    twist is not the one the executive asked for (it compares the tag). The step is a pure function of the
+    state and the twist, so both paths give the same bits; the end-to-end tests compare the whole mission
+    with the in-process run tick for tick.
 
     Attributes:
         from_ns: the instant the step started from.
         twist: the twist it was taken with.
         robot: the robot before it.
         positions: how many path positions the bridge had recorded before it.
+        proprioception: the IMU and joint reading the bridge last sent, before it.
+        last_twist: the twist of the step before it (the tag of the state it goes back to).
     """
 
     from_ns: int
     twist: Twist
     robot: KinematicSnapshot
     positions: int
-
-
-def _same_bits(a: Twist, b: Twist) -> bool:
-    """Equal to the bit (``==`` holds for 0.0 and -0.0, which a step may carry on to different results)."""
-    return struct.pack("<3d", a.linear_x_mps, a.linear_y_mps, a.angular_z_radps) == struct.pack(
-        "<3d", b.linear_x_mps, b.linear_y_mps, b.angular_z_radps
-    )
+    proprioception: tuple[ImuReading, JointState] | None
+    last_twist: Twist
 
 
 def camera_config_for(profile: Ros2Profile) -> CameraConfig:
@@ -278,6 +279,15 @@ class SimBridge:
         # Lockstep: steps answered, replies left out on purpose (drop_step_replies), and steps asked again
         # for a stamp already reached (the executive's resends, answered with the state again).
         self._step_replies = {"sent": 0, "dropped": 0, "repeated": 0}
+        # The step count whose state was last left out (drop_step_replies): a step taken back and taken
+        # again is one step, its state left out once.
+        self._dropped_at = 0
+        # The twist the world's last step was made with (each state carries it: SimState.step_twist).
+        self._last_twist = Twist.zero()
+        # Lockstep: the instant the executive last asked for (a speculative step goes past it), and the
+        # renders asked for at an instant the world has not reached yet (_catch_up).
+        self._asked_ns = 0
+        self._pending_renders: list[CameraRequest] = []
         self._speculation: Speculation | None = None
         # Speculative steps the executive then asked for (kept) and those taken back (Speculation).
         self._speculated = {"kept": 0, "taken_back": 0}
@@ -290,7 +300,7 @@ class SimBridge:
         self._timeouts: list[dict[str, float]] = []
         self._timed_out = False
         self._last_step_wall_s = time.monotonic()
-        self._outcome: tuple[str, list[dict[str, Any]]] | None = None
+        self._outcome: Outcome | None = None
         self._stop_reason: str | None = None
         self._errors: list[str] = []
         self._frames_published = 0
@@ -415,60 +425,91 @@ class SimBridge:
         heartbeat, IMU and joint states), all stamped with it. In lockstep ``/sim/state`` carries them all
         and goes first: it is the reply the executive waits for, and what follows (the streams ROS tools
         listen to) then goes out while the executive ticks its tree, on the other core."""
-        now_ns = self._now_ns()
-        stamp_s = now_ns * 1e-9
-        frames = self.profile.frames
+        if self.options.mode == "lockstep":
+            self._send_state(heartbeat=heartbeat)
+        self._publish_streams(heartbeat=heartbeat)
+
+    def _proprioception_now(self, *, heartbeat: bool) -> tuple[ImuReading, JointState]:
+        """The IMU and joint reading to send: read again every PROPRIOCEPTION_EVERY steps or on a
+        heartbeat, else the last one read."""
+        if self._proprioception is None or self._steps % PROPRIOCEPTION_EVERY == 0 or heartbeat:
+            self._proprioception = (self.robot.imu(), self.robot.joint_state())
+        return self._proprioception
+
+    def _send_state(self, *, heartbeat: bool = False, droppable: bool = False) -> None:
+        """Lockstep: the current instant on ``/sim/state`` (one message: :class:`SimState`), tagged with
+        the twist of the step that made it. ``droppable``: a step's state, which ``drop_step_replies``
+        may leave out (as a lost datagram would)."""
+        if self._silenced("odom"):  # it carries the odometry
+            return
+        drop_every = self.options.drop_step_replies
+        if droppable and drop_every and self._steps % drop_every == 0 and self._steps != self._dropped_at:
+            self._dropped_at = self._steps
+            self._step_replies["dropped"] += 1
+            return
         robot = self.robot
         # The simulator's own pose values (float64 on the wire): the executive derives its pose and the
         # camera's from them exactly as the in-process backend does (MujocoRobot.base_odometry).
         position, orientation = robot.base_odometry()
-        twist = robot.base_twist()
-        sim_time_s = robot.now_s()
-        fresh = self._proprioception is None or self._steps % PROPRIOCEPTION_EVERY == 0 or heartbeat
-        if fresh:
-            self._proprioception = (robot.imu(), robot.joint_state())
-        assert self._proprioception is not None
-        imu, joints = self._proprioception
-        if self.options.mode == "lockstep" and not self._silenced("odom"):  # it carries the odometry
-            state = self._reused["state"]
-            state.data = encode_state(
-                SimState(
-                    stamp_ns=now_ns,
-                    sim_time_s=sim_time_s,
-                    position_m=position,
-                    orientation_xyzw=orientation,
-                    twist=twist,
-                    imu=(*imu.orientation_wxyz, *imu.angular_velocity_radps, *imu.linear_acceleration_mps2),
-                    joint_position_rad=tuple(joints.position_rad),
-                    joint_velocity_radps=tuple(joints.velocity_radps),
-                )
+        imu, joints = self._proprioception_now(heartbeat=heartbeat)
+        state = self._reused["state"]
+        state.data = encode_state(
+            SimState(
+                stamp_ns=self._now_ns(),
+                sim_time_s=robot.now_s(),
+                position_m=position,
+                orientation_xyzw=orientation,
+                twist=robot.base_twist(),
+                step_twist=self._last_twist,
+                imu=(*imu.orientation_wxyz, *imu.angular_velocity_radps, *imu.linear_acceleration_mps2),
+                joint_position_rad=tuple(joints.position_rad),
+                joint_velocity_radps=tuple(joints.velocity_radps),
             )
-            self._pubs["state"].publish(state)
-        if self._wanted("odom"):
+        )
+        self._pubs["state"].publish(state)
+        self._step_replies["sent"] += 1
+
+    def _publish_streams(self, *, heartbeat: bool = False) -> None:
+        """The current instant on the driver's and the clock's topics (``/odom``, ``/imu``,
+        ``/joint_states``, ``/sim/time``, ``/clock``): always in realtime; in lockstep only to those that
+        subscribe (:meth:`_wanted`), and only for instants the executive has asked for."""
+        wanted = {
+            stream: self._wanted(stream) for stream in ("odom", "imu", "joint_states", "sim_time", "clock")
+        }
+        if not any(wanted.values()):
+            return
+        now_ns = self._now_ns()
+        stamp_s = now_ns * 1e-9
+        frames = self.profile.frames
+        robot = self.robot
+        fresh = self._proprioception is None or self._steps % PROPRIOCEPTION_EVERY == 0 or heartbeat
+        imu, joints = self._proprioception_now(heartbeat=heartbeat)
+        if wanted["odom"]:
+            position, orientation = robot.base_odometry()
             odom = self._reused["odom"]
             fill_odometry(
                 odom,
                 position,
                 orientation,
-                twist,
+                robot.base_twist(),
                 stamp_s=stamp_s,
                 odom_frame=frames.odom,
                 base_frame=frames.base,
             )
             self._publish("odom", odom)
-        if fresh and self._wanted("imu"):
+        if fresh and wanted["imu"]:
             imu_msg = self._types["imu"]()
             fill_imu(imu_msg, imu, stamp_s=stamp_s, frame_id=frames.base)
             self._publish("imu", imu_msg)
-        if fresh and self._wanted("joint_states"):
+        if fresh and wanted["joint_states"]:
             joints_msg = self._types["joint_states"]()
             fill_joint_state(joints_msg, self._joint_names, joints, stamp_s=stamp_s)
             self._publish("joint_states", joints_msg)
-        if self._wanted("sim_time"):
+        if wanted["sim_time"]:
             sim_time = self._reused["sim_time"]
-            sim_time.data = sim_time_s
+            sim_time.data = robot.now_s()
             self._publish("sim_time", sim_time)
-        if self._wanted("clock"):
+        if wanted["clock"]:
             clock = self._reused["clock"]
             fill_stamp(clock.clock, stamp_s)
             self._publish("clock", clock)
@@ -527,6 +568,7 @@ class SimBridge:
             self.robot.command_twist(twist)
         self.robot.advance(CONTROL_PERIOD_S)
         self._steps += 1
+        self._last_twist = twist
         self._positions.append(self.robot.base_pose().position())
         if self._now_ns() * 1e-9 >= self.options.max_sim_s:
             self._stop("max_sim_s")
@@ -558,27 +600,56 @@ class SimBridge:
             twist = Twist.zero()
         # The executive's target time, in whole control periods (normally one). A step for a stamp already
         # reached is a resend (its reply was lost, or late): it is answered with the state again.
-        stepped = self._keep_speculation(target_ns, twist)
+        kept = self._keep_speculation(target_ns, twist)
+        stepped = False
         while self._now_ns() + self._period_ns // 2 < target_ns and self._stop_reason is None:
             self.step(twist)
             stepped = True
         self._last_step_wall_s = time.monotonic()
-        replies = self._step_replies
-        if not stepped:
-            replies["repeated"] += 1
-        drop_every = self.options.drop_step_replies
-        if stepped and drop_every and self._steps % drop_every == 0:
-            replies["dropped"] += 1
-            return
-        replies["sent"] += 1
-        self.publish_state()
+        if not (kept or stepped):
+            self._step_replies["repeated"] += 1
+        if not kept or stepped:  # a kept step's state went ahead (Speculation): no reply
+            self._send_state(droppable=stepped)
+        self._publish_streams()
+        self._asked_ns = self._now_ns()
+        waiting, self._pending_renders = self._pending_renders, []
+        for request in waiting:
+            if not self._catch_up(request.at_ns, take_waiting=False):
+                self._pending_renders.append(request)
+            else:
+                self.publish_frame(request)
         self._speculate(twist)
 
+    def _catch_up(self, at_ns: int | None, *, take_waiting: bool = True) -> bool:
+        """Lockstep: whether the world is at the executive's instant ``at_ns`` (None: whatever it is at),
+        with any speculative step taken back or kept to get there.
+
+        The executive takes a state sent ahead without waiting for the bridge to take its ask, so a render
+        request or the outcome (other topics, which DDS does not order with ``/sim/step``) may come first.
+        Then the asks already waiting are taken now, in order; if the ask is still on its way, the
+        executive can only be at ``at_ns`` by having taken the speculative step's state (the one step
+        ahead), so that step is kept. False only if neither brings the world there (a step not sent yet).
+        ``take_waiting``: False from the step handler itself, which must not run again inside itself.
+        """
+        if take_waiting and at_ns is not None and self._asked_ns < at_ns:
+            self._pump.drain(self._requests[:1])
+        if at_ns is not None and self._asked_ns < at_ns:
+            speculation = self._speculation
+            if speculation is None or speculation.from_ns + self._period_ns != at_ns:
+                return False
+            self._speculation = None
+            self._speculated["kept"] += 1
+            self._asked_ns = at_ns
+            return True
+        self._take_back_speculation()  # at the instant the executive has
+        return True
+
     def _speculate(self, twist: Twist) -> None:
-        """Take the next step ahead with ``twist`` (:class:`Speculation`), where it can be taken back (called
-        from the lockstep step handler only)."""
+        """Take the next step ahead with ``twist`` and send its state ahead (:class:`Speculation`), where
+        it can be taken back (lockstep: after a step's answer or a render)."""
         if not (
             self.options.speculate
+            and self._speculation is None  # one step ahead, no more
             and self._gait is None  # kinematic: MujocoRobot.snapshot
             and self._stop_reason is None
             # A step that would end the episode (max_sim_s) ends it when asked for, not ahead of the ask.
@@ -586,10 +657,16 @@ class SimBridge:
         ):
             return
         speculation = Speculation(
-            from_ns=self._now_ns(), twist=twist, robot=self.robot.snapshot(), positions=len(self._positions)
+            from_ns=self._now_ns(),
+            twist=twist,
+            robot=self.robot.snapshot(),
+            positions=len(self._positions),
+            proprioception=self._proprioception,
+            last_twist=self._last_twist,
         )
         self.step(twist)
         self._speculation = speculation
+        self._send_state(droppable=True)
 
     def _keep_speculation(self, target_ns: int, twist: Twist) -> bool:
         """Whether the step asked for (to ``target_ns`` under ``twist``) begins with the speculative one,
@@ -597,7 +674,10 @@ class SimBridge:
         speculation = self._speculation
         if speculation is None:
             return False
-        if _same_bits(speculation.twist, twist) and speculation.from_ns + self._period_ns // 2 < target_ns:
+        if (
+            same_twist_bits(speculation.twist, twist)
+            and speculation.from_ns + self._period_ns // 2 < target_ns
+        ):
             self._speculation = None
             self._speculated["kept"] += 1
             return True
@@ -612,24 +692,39 @@ class SimBridge:
         self._speculation = None
         self.robot.restore(speculation.robot)
         self._steps -= 1
+        self._last_twist = speculation.last_twist
+        self._proprioception = speculation.proprioception
         del self._positions[speculation.positions :]
         self._speculated["taken_back"] += 1
 
     def _on_camera_request(self, msg: Any) -> None:
-        self._take_back_speculation()  # the render is of the instant the executive has
         try:
             request = decode_camera_request(msg.data)
         except InvalidInputError as error:
+            self._take_back_speculation()
             self._errors.append(str(error))
             return
-        self.publish_frame(request)
+        if not self._catch_up(request.at_ns):  # rendered when the step there comes (_on_step)
+            self._pending_renders.append(request)
+            return
+        self.publish_frame(request)  # of the instant the executive has
+        # Ahead again while the executive reads the frames, so that its next step needs no wait either;
+        # not before its first step: until it has asked for one, every state it gets is its start.
+        if self._steps > 0:
+            self._speculate(self._last_twist)
 
     def _on_outcome(self, msg: Any) -> None:
-        self._take_back_speculation()  # the episode ends where the executive ended it
+        at_ns = None
         try:
             self._outcome = decode_outcome(msg.data)
+            at_ns = self._outcome.at_ns
         except InvalidInputError as error:
             self._errors.append(str(error))
+        if not self._catch_up(at_ns):  # the episode ends where the executive ended it, or as near as known
+            self._errors.append(
+                f"{OUTCOME_TOPIC}: the executive ended at {at_ns} ns, the world is at {self._asked_ns} ns"
+            )
+            self._take_back_speculation()
         self._stop("mission_end")
 
     # ------------------------------------------------------------------ loops
@@ -716,7 +811,11 @@ class SimBridge:
     def result(self, *, wall_s: float) -> dict[str, Any]:
         """The episode's scoring plus what the bridge saw of the link."""
         self._take_back_speculation()
-        outcome, found = self._outcome if self._outcome is not None else ("interrupted", [])
+        outcome, found = (
+            (self._outcome.outcome, self._outcome.found_objects)
+            if self._outcome is not None
+            else ("interrupted", [])
+        )
         score = score_episode(
             scene=self.scene,
             episode=self.episode,

@@ -29,6 +29,7 @@ from robots.ros2_profile import (
 from robots.ros2_sim_protocol import (
     STATE_FIELDS,
     CameraRequest,
+    Outcome,
     SimProtocolError,
     SimState,
     decode_camera_request,
@@ -195,22 +196,28 @@ def test_the_scene_announcement_withholds_where_things_are() -> None:
 def test_camera_requests_and_outcomes_round_trip_and_bad_payloads_are_named() -> None:
     request = CameraRequest(kind="depth", grids=(PixelGrid(stride=8, offset=4), PixelGrid(stride=4)))
     assert decode_camera_request(encode_camera_request(request)) == request
-    side = CameraRequest(kind="side", grids=(PixelGrid(stride=4, offset=2),))
+    side = CameraRequest(kind="side", grids=(PixelGrid(stride=4, offset=2),), at_ns=83_660_000_000)
     assert decode_camera_request(encode_camera_request(side)) == side
     assert decode_camera_request(encode_camera_request(CameraRequest(kind="full"))) == CameraRequest(
         kind="full"
     )
     found = [{"label": "chair", "position_m": [1.0, 2.0, 0.5], "robot_xy": [0.5, 1.5]}]
-    assert decode_outcome(encode_outcome("success", found)) == ("success", found)
+    outcome = Outcome("success", found, at_ns=20_000_000)
+    assert decode_outcome(encode_outcome(outcome)) == outcome
+    assert decode_outcome(encode_outcome(Outcome("budget_exceeded", []))).at_ns is None
     for text, topic in [
         ("{", "/sim/camera/request: not JSON"),
         ('{"kind": "half"}', "/sim/camera/request: field 'kind'"),
         ('{"kind": "depth", "grids": [[4]]}', "/sim/camera/request: field 'grids'"),
+        ('{"kind": "full", "at_ns": -1}', "/sim/camera/request: field 'at_ns'"),
+        ('{"kind": "full", "at_ns": 0.5}', "/sim/camera/request: field 'at_ns'"),
     ]:
         with pytest.raises(SimProtocolError, match=topic):
             decode_camera_request(text)
     with pytest.raises(SimProtocolError, match="/sim/outcome: each found object needs 'position_m'"):
         decode_outcome('{"outcome": "success", "found_objects": [{"label": "x"}]}')
+    with pytest.raises(SimProtocolError, match="/sim/outcome: field 'at_ns'"):
+        decode_outcome('{"outcome": "success", "found_objects": [], "at_ns": true}')
     with pytest.raises(SimProtocolError, match="/sim/scene: missing field 'scene'"):
         decode_simulation_info('{"mode": "lockstep", "control_period_s": 0.02, "seed": 1}')
 
@@ -223,6 +230,7 @@ def test_a_step_state_round_trips_to_the_bit_and_bad_payloads_are_named() -> Non
         position_m=(1.0 / 3.0, -2.0 / 7.0, 0.27),
         orientation_xyzw=(0.0, 0.0, math.sin(0.1), math.cos(0.1)),
         twist=Twist(0.3, -1e-17, 0.7),
+        step_twist=Twist(0.25, -0.0, 1.0 / 3.0),
         imu=(math.cos(0.1), 0.0, 0.0, math.sin(0.1), 1e-3 / 3, 0.0, -0.2, 0.01, -0.02, 9.81),
         joint_position_rad=(0.1, 0.8 / 3, -1.5),
         joint_velocity_radps=(0.0, -1e-9, 2.0 / 3),
@@ -236,14 +244,14 @@ def test_a_step_state_round_trips_to_the_bit_and_bad_payloads_are_named() -> Non
     assert imu.orientation_wxyz.tolist() == list(state.imu[:4])
     assert imu.linear_acceleration_mps2.tolist() == list(state.imu[7:])
     assert decoded.joint_state().velocity_radps.tolist() == list(state.joint_velocity_radps)
-    with pytest.raises(SimProtocolError, match=r"/sim/state: expected 28 values \(22 and 3 joints"):
+    with pytest.raises(SimProtocolError, match=r"/sim/state: expected 31 values \(25 and 3 joints"):
         decode_state(values[:-1], joints=3)
     with pytest.raises(SimProtocolError, match="/sim/state: field 'orientation_w' must be finite"):
         decode_state([*values[:8], math.nan, *values[9:]], joints=3)
     with pytest.raises(SimProtocolError, match="/sim/state: field 'imu_linear_acceleration_z_mps2' must be"):
-        decode_state([*values[:21], math.inf, *values[22:]], joints=3)
+        decode_state([*values[:24], math.inf, *values[25:]], joints=3)
     with pytest.raises(SimProtocolError, match="/sim/state: field 'joint value 4' must be finite"):
-        decode_state([*values[:26], math.nan, *values[27:]], joints=3)
+        decode_state([*values[:29], math.nan, *values[30:]], joints=3)
     with pytest.raises(SimProtocolError, match="not exact in a float64"):
         encode_state(dataclasses.replace(state, stamp_ns=2**53))
     with pytest.raises(SimProtocolError, match="as many joint velocities as positions"):

@@ -137,7 +137,6 @@ def run_ros2_mission(options: Ros2MissionOptions) -> dict[str, Any]:
         ValueError: a malformed mission, configuration, profile, or an unknown component.
     """
     from robots.ros2_backend import RobotHalted, Ros2Robot
-    from robots.ros2_sim_protocol import encode_outcome
 
     wall_start = time.perf_counter()
     mission = parse_mission(options.mission_path)
@@ -235,6 +234,7 @@ def run_ros2_mission(options: Ros2MissionOptions) -> dict[str, Any]:
                 else {"scene": info.scene.name, "seed": info.seed, "mode": info.mode},
                 "ros_time_at_start_s": robot.epoch_s,
                 "steps_resent": robot.steps_resent,
+                "steps_taken_ahead": robot.steps_taken_ahead,
                 "mission_wall_s": mission_wall_s,
                 "wall_time_s": time.perf_counter() - wall_start,
             }
@@ -242,7 +242,8 @@ def run_ros2_mission(options: Ros2MissionOptions) -> dict[str, Any]:
         if simulation:
             # A halted robot may have lost its bridge: then nobody acknowledges, so do not wait long.
             record["outcome_reported"] = robot.report_outcome(
-                encode_outcome(record["outcome"], record["found_objects"]),
+                record["outcome"],
+                record["found_objects"],
                 timeout_s=OUTCOME_ACK_S if halted_by is None else HALTED_OUTCOME_ACK_S,
             )
         return record
