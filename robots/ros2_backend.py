@@ -128,6 +128,9 @@ CLOSE_WAIT_S = 2.0
 #: (a CI run: a 2 s join ran out whole), while a dead bridge must see the executive exit within 2 s
 #: (tests/test_ros2_mission.py); the zero twists are out before this wait, so a shorter one loses nothing.
 HALTED_CLOSE_WAIT_S = 0.2
+#: Lockstep: the most states sent ahead that the executive keeps at once (the bridge sends at most
+#: ``SPECULATION_DEPTH`` beyond the ask; stale ones are dropped at each ask).
+MAX_STATES_AHEAD = 8
 #: Least wall time (s) the lockstep executive waits for the bridge to answer a step or a render. The
 #: profile's sensor deadlines are the real robot's rates; a simulated step on a loaded 2-core machine
 #: answered later than odometry's 0.5 s once (CI), which is a slow simulation, not a lost robot. 1 s keeps
@@ -297,11 +300,14 @@ class Ros2Robot(Robot):
         self._halt: RobotHalted | None = None
         self._command = Twist.zero()
         self._target_ns: int | None = None
-        # Lockstep: the step last asked for (its stamp and twist): only a state made by that step is its
-        # reply (SimState.step_twist); a state for a later instant is the bridge's step ahead, kept aside.
+        # Lockstep: the step last asked for (its stamp and twist), and the instant since which every step
+        # asked for had that twist: a state is the ask's reply only if it was made under that twist from an
+        # instant no earlier (SimState.step_twist, from_ns). States for later instants are the bridge's
+        # steps ahead, kept aside by stamp until asked for.
         self._asked: tuple[int, Twist] | None = None
+        self._same_twist_since_ns = 0
+        self._ahead: dict[int, tuple[SimState, npt.NDArray[np.float64], Any]] = {}
         self._silent_wait_s = 0.0
-        self._ahead: tuple[SimState, npt.NDArray[np.float64], Any] | None = None
         self._epoch_ns = 0
         self._bridge_heard_s = time.monotonic()
         self._simulation_info: SimulationInfo | None = None
@@ -524,13 +530,23 @@ class Ros2Robot(Robot):
             return
         with self._lock:
             asked = self._asked
-            if asked is None or (state.stamp_ns == asked[0] and same_twist_bits(state.step_twist, asked[1])):
+            if asked is None or self._answers_ask(state):
                 self._take_state_locked(state, transform, msg)
             else:  # the bridge spoke, if not this step's answer
                 self._bridge_heard_s = time.monotonic()
-                if state.stamp_ns > asked[0]:
-                    self._ahead = (state, transform, msg)
+                if state.stamp_ns > asked[0] and len(self._ahead) < MAX_STATES_AHEAD:
+                    self._ahead[state.stamp_ns] = (state, transform, msg)
                 # else: a state for an instant already passed, or sent ahead under another twist.
+
+    def _answers_ask(self, state: SimState) -> bool:
+        """Lockstep: ``state`` is the state of the step last asked for (call with the lock held)."""
+        asked = self._asked
+        return (
+            asked is not None
+            and state.stamp_ns == asked[0]
+            and same_twist_bits(state.step_twist, asked[1])
+            and state.from_ns >= self._same_twist_since_ns
+        )
 
     def _take_state_locked(self, state: SimState, transform: npt.NDArray[np.float64], msg: Any) -> None:
         """Lockstep: ``state`` is the instant the executive is at (call with the lock held)."""
@@ -699,13 +715,14 @@ class Ros2Robot(Robot):
         fill_twist(msg.twist, command)
         with self._lock:
             self._raise_if_halted()
+            previous = self._asked
+            if previous is None or not same_twist_bits(previous[1], command):
+                self._same_twist_since_ns = self._target_ns if self._target_ns is not None else 0
             self._asked = (target_ns, command)
-            ahead, self._ahead = self._ahead, None
-            taken = (
-                ahead is not None
-                and ahead[0].stamp_ns == target_ns
-                and same_twist_bits(ahead[0].step_twist, command)
-            )
+            ahead = self._ahead.pop(target_ns, None)
+            for stamp in [stamp for stamp in self._ahead if stamp <= target_ns]:
+                del self._ahead[stamp]
+            taken = ahead is not None and self._answers_ask(ahead[0])
             if taken:
                 assert ahead is not None
                 self._take_state_locked(*ahead)

@@ -208,6 +208,7 @@ STATE_FIELDS: tuple[str, ...] = (
     "step_linear_x_mps",
     "step_linear_y_mps",
     "step_angular_z_radps",
+    "step_from_ns",
     "imu_orientation_w",
     "imu_orientation_x",
     "imu_orientation_y",
@@ -235,9 +236,10 @@ class SimState:
         position_m: the base's position in ``odom`` (x, y, z).
         orientation_xyzw: its orientation (a quaternion x, y, z, w, as the simulator has it).
         twist: its body twist.
-        step_twist: the command the last step was taken with (the executive takes a state for the step
-            it asks for only if it was made with that step's twist: a state sent ahead under another
-            command is not that step's).
+        step_twist: the command the steps that made this state were taken with.
+        from_ns: the instant those steps started from: the executive's instant then (a state sent ahead
+            continues the executive's steps only if every step it asked for since then had this twist;
+            sims/ros2_bridge.py, ``Speculation``).
         imu: the latest IMU reading: orientation (w, x, y, z), angular velocity, linear acceleration.
         joint_position_rad: the latest joint positions, in the actuator order.
         joint_velocity_radps: the latest joint velocities (as many as the positions).
@@ -249,6 +251,7 @@ class SimState:
     orientation_xyzw: tuple[float, float, float, float]
     twist: Twist
     step_twist: Twist
+    from_ns: int
     imu: tuple[float, ...]
     joint_position_rad: tuple[float, ...]
     joint_velocity_radps: tuple[float, ...]
@@ -278,8 +281,9 @@ def same_twist_bits(a: Twist, b: Twist) -> bool:
 def encode_state(state: SimState) -> array.array[float]:
     """The ``/sim/state`` values (:data:`STATE_FIELDS`, then the joints), float64 each: the receiver gets
     these bits. An ``array('d')``: rclpy's setter takes it as it is, where a list is checked value by value."""
-    if not 0 <= state.stamp_ns < _EXACT_NS:
-        raise SimProtocolError(f"{STATE_TOPIC}: stamp {state.stamp_ns} ns is not exact in a float64")
+    for stamp in (state.stamp_ns, state.from_ns):
+        if not 0 <= stamp < _EXACT_NS:
+            raise SimProtocolError(f"{STATE_TOPIC}: stamp {stamp} ns is not exact in a float64")
     if len(state.imu) != len(STATE_FIELDS) - _IMU_AT:
         raise SimProtocolError(f"{STATE_TOPIC}: the IMU takes {len(STATE_FIELDS) - _IMU_AT} values")
     if len(state.joint_position_rad) != len(state.joint_velocity_radps):
@@ -298,6 +302,7 @@ def encode_state(state: SimState) -> array.array[float]:
             state.step_twist.linear_x_mps,
             state.step_twist.linear_y_mps,
             state.step_twist.angular_z_radps,
+            state.from_ns,
             *state.imu,
             *state.joint_position_rad,
             *state.joint_velocity_radps,
@@ -321,7 +326,9 @@ def decode_state(values: Sequence[float], *, joints: int) -> SimState:
         name = STATE_FIELDS[at] if at < len(STATE_FIELDS) else f"joint value {at - len(STATE_FIELDS)}"
         raise SimProtocolError(f"{STATE_TOPIC}: field '{name}' must be finite, got {floats[at]}")
     listed = floats.tolist()
-    stamp, sim_time, px, py, pz, qx, qy, qz, qw, vx, vy, wz, step_vx, step_vy, step_wz = listed[:_IMU_AT]
+    stamp, sim_time, px, py, pz, qx, qy, qz, qw, vx, vy, wz, step_vx, step_vy, step_wz, from_ns = listed[
+        :_IMU_AT
+    ]
     joint_at = len(STATE_FIELDS)
     return SimState(
         stamp_ns=int(stamp),
@@ -330,6 +337,7 @@ def decode_state(values: Sequence[float], *, joints: int) -> SimState:
         orientation_xyzw=(qx, qy, qz, qw),
         twist=Twist(vx, vy, wz),
         step_twist=Twist(step_vx, step_vy, step_wz),
+        from_ns=int(from_ns),
         imu=tuple(listed[_IMU_AT:joint_at]),
         joint_position_rad=tuple(listed[joint_at : joint_at + joints]),
         joint_velocity_radps=tuple(listed[joint_at + joints :]),

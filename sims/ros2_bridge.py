@@ -104,6 +104,10 @@ HEARTBEAT_S = 0.25
 #: the tree reads them faster, and each message costs both processes more than a kinematic step does
 #: (docs/ros2.md).
 PROPRIOCEPTION_EVERY = 5
+#: Lockstep, kinematic: how many steps the bridge takes ahead of the executive's ask (:class:`Speculation`).
+#: One hides the MuJoCo step; the second hides the round trip too, when the executive's tick is shorter
+#: than the time its ask takes to reach the bridge and the next state to come back (most ticks are).
+SPECULATION_DEPTH = 2
 #: The streams that in lockstep travel inside ``/sim/state`` (not silenceable there on their own).
 RIDE_ON_STATE: tuple[str, ...] = ("imu", "joint_states")
 #: The streams a test may silence (``--silence STREAM=T``): the profile's sensor topics.
@@ -203,7 +207,6 @@ class Speculation:
         robot: the robot before it.
         positions: how many path positions the bridge had recorded before it.
         proprioception: the IMU and joint reading the bridge last sent, before it.
-        last_twist: the twist of the step before it (the tag of the state it goes back to).
     """
 
     from_ns: int
@@ -211,7 +214,6 @@ class Speculation:
     robot: KinematicSnapshot
     positions: int
     proprioception: tuple[ImuReading, JointState] | None
-    last_twist: Twist
 
 
 def camera_config_for(profile: Ros2Profile) -> CameraConfig:
@@ -282,13 +284,15 @@ class SimBridge:
         # The step count whose state was last left out (drop_step_replies): a step taken back and taken
         # again is one step, its state left out once.
         self._dropped_at = 0
-        # The twist the world's last step was made with (each state carries it: SimState.step_twist).
-        self._last_twist = Twist.zero()
-        # Lockstep: the instant the executive last asked for (a speculative step goes past it), and the
-        # renders asked for at an instant the world has not reached yet (_catch_up).
+        # Lockstep: the instant the executive last asked for (speculative steps go past it), the twist of
+        # that ask and the instant it started from (the tags of its state: SimState.step_twist, from_ns),
+        # and the renders asked for at an instant the world has not reached yet (_catch_up).
         self._asked_ns = 0
+        self._asked_twist = Twist.zero()
+        self._asked_from_ns = 0
         self._pending_renders: list[CameraRequest] = []
-        self._speculation: Speculation | None = None
+        # The steps taken ahead of the ask, earliest first (all under one twist).
+        self._speculations: list[Speculation] = []
         # Speculative steps the executive then asked for (kept) and those taken back (Speculation).
         self._speculated = {"kept": 0, "taken_back": 0}
         self._positions = [self.robot.base_pose().position()]
@@ -426,7 +430,8 @@ class SimBridge:
         and goes first: it is the reply the executive waits for, and what follows (the streams ROS tools
         listen to) then goes out while the executive ticks its tree, on the other core."""
         if self.options.mode == "lockstep":
-            self._send_state(heartbeat=heartbeat)
+            self._take_back_speculation()  # the instant the executive asked for
+            self._send_state(from_ns=self._asked_from_ns, twist=self._asked_twist, heartbeat=heartbeat)
         self._publish_streams(heartbeat=heartbeat)
 
     def _proprioception_now(self, *, heartbeat: bool) -> tuple[ImuReading, JointState]:
@@ -436,10 +441,13 @@ class SimBridge:
             self._proprioception = (self.robot.imu(), self.robot.joint_state())
         return self._proprioception
 
-    def _send_state(self, *, heartbeat: bool = False, droppable: bool = False) -> None:
+    def _send_state(
+        self, *, from_ns: int, twist: Twist, heartbeat: bool = False, droppable: bool = False
+    ) -> None:
         """Lockstep: the current instant on ``/sim/state`` (one message: :class:`SimState`), tagged with
-        the twist of the step that made it. ``droppable``: a step's state, which ``drop_step_replies``
-        may leave out (as a lost datagram would)."""
+        the twist of the steps that made it and the instant they started from (the executive's, then).
+        ``droppable``: a step's state, which ``drop_step_replies`` may leave out (as a lost datagram
+        would)."""
         if self._silenced("odom"):  # it carries the odometry
             return
         drop_every = self.options.drop_step_replies
@@ -460,7 +468,8 @@ class SimBridge:
                 position_m=position,
                 orientation_xyzw=orientation,
                 twist=robot.base_twist(),
-                step_twist=self._last_twist,
+                step_twist=twist,
+                from_ns=from_ns,
                 imu=(*imu.orientation_wxyz, *imu.angular_velocity_radps, *imu.linear_acceleration_mps2),
                 joint_position_rad=tuple(joints.position_rad),
                 joint_velocity_radps=tuple(joints.velocity_radps),
@@ -478,6 +487,7 @@ class SimBridge:
         }
         if not any(wanted.values()):
             return
+        self._take_back_speculation()  # the instant the executive asked for, not the steps ahead
         now_ns = self._now_ns()
         stamp_s = now_ns * 1e-9
         frames = self.profile.frames
@@ -568,7 +578,6 @@ class SimBridge:
             self.robot.command_twist(twist)
         self.robot.advance(CONTROL_PERIOD_S)
         self._steps += 1
-        self._last_twist = twist
         self._positions.append(self.robot.base_pose().position())
         if self._now_ns() * 1e-9 >= self.options.max_sim_s:
             self._stop("max_sim_s")
@@ -602,16 +611,21 @@ class SimBridge:
         # reached is a resend (its reply was lost, or late): it is answered with the state again.
         kept = self._keep_speculation(target_ns, twist)
         stepped = False
-        while self._now_ns() + self._period_ns // 2 < target_ns and self._stop_reason is None:
-            self.step(twist)
-            stepped = True
+        if not kept or self._asked_ns + self._period_ns // 2 < target_ns:
+            self._take_back_speculation()
+            from_ns = self._asked_ns
+            while self._now_ns() + self._period_ns // 2 < target_ns and self._stop_reason is None:
+                self.step(twist)
+                stepped = True
+            if stepped:
+                self._asked_from_ns, self._asked_twist = from_ns, twist
+            self._asked_ns = self._now_ns()
         self._last_step_wall_s = time.monotonic()
         if not (kept or stepped):
             self._step_replies["repeated"] += 1
         if not kept or stepped:  # a kept step's state went ahead (Speculation): no reply
-            self._send_state(droppable=stepped)
+            self._send_state(from_ns=self._asked_from_ns, twist=self._asked_twist, droppable=stepped)
         self._publish_streams()
-        self._asked_ns = self._now_ns()
         waiting, self._pending_renders = self._pending_renders, []
         for request in waiting:
             if not self._catch_up(request.at_ns, take_waiting=False):
@@ -622,80 +636,80 @@ class SimBridge:
 
     def _catch_up(self, at_ns: int | None, *, take_waiting: bool = True) -> bool:
         """Lockstep: whether the world is at the executive's instant ``at_ns`` (None: whatever it is at),
-        with any speculative step taken back or kept to get there.
+        with the speculative steps kept up to it and the rest taken back.
 
         The executive takes a state sent ahead without waiting for the bridge to take its ask, so a render
         request or the outcome (other topics, which DDS does not order with ``/sim/step``) may come first.
-        Then the asks already waiting are taken now, in order; if the ask is still on its way, the
-        executive can only be at ``at_ns`` by having taken the speculative step's state (the one step
-        ahead), so that step is kept. False only if neither brings the world there (a step not sent yet).
-        ``take_waiting``: False from the step handler itself, which must not run again inside itself.
+        Then the asks already waiting are taken now, in order; if an ask is still on its way, the
+        executive can only be at ``at_ns`` by having taken the speculative steps' states up to it (their
+        tags matched its asks), so those steps are kept. False only if neither brings the world there (a
+        step not sent yet). ``take_waiting``: False from the step handler, which must not run inside itself.
         """
         if take_waiting and at_ns is not None and self._asked_ns < at_ns:
             self._pump.drain(self._requests[:1])
+        while at_ns is not None and self._asked_ns < at_ns and self._speculations:
+            self._keep_first_speculation()
         if at_ns is not None and self._asked_ns < at_ns:
-            speculation = self._speculation
-            if speculation is None or speculation.from_ns + self._period_ns != at_ns:
-                return False
-            self._speculation = None
-            self._speculated["kept"] += 1
-            self._asked_ns = at_ns
-            return True
+            return False
         self._take_back_speculation()  # at the instant the executive has
         return True
 
     def _speculate(self, twist: Twist) -> None:
-        """Take the next step ahead with ``twist`` and send its state ahead (:class:`Speculation`), where
-        it can be taken back (lockstep: after a step's answer or a render)."""
-        if not (
-            self.options.speculate
-            and self._speculation is None  # one step ahead, no more
+        """Take steps ahead with ``twist`` up to :data:`SPECULATION_DEPTH` and send each one's state at once
+        (:class:`Speculation`), where they can be taken back (lockstep: after a step's answer or a
+        render)."""
+        if self._speculations and not same_twist_bits(self._speculations[-1].twist, twist):
+            self._take_back_speculation()  # one twist per chain
+        while (
+            len(self._speculations) < SPECULATION_DEPTH
+            and self.options.speculate
             and self._gait is None  # kinematic: MujocoRobot.snapshot
             and self._stop_reason is None
             # A step that would end the episode (max_sim_s) ends it when asked for, not ahead of the ask.
             and (self._now_ns() + self._period_ns) * 1e-9 < self.options.max_sim_s
         ):
-            return
-        speculation = Speculation(
-            from_ns=self._now_ns(),
-            twist=twist,
-            robot=self.robot.snapshot(),
-            positions=len(self._positions),
-            proprioception=self._proprioception,
-            last_twist=self._last_twist,
-        )
-        self.step(twist)
-        self._speculation = speculation
-        self._send_state(droppable=True)
+            speculation = Speculation(
+                from_ns=self._now_ns(),
+                twist=twist,
+                robot=self.robot.snapshot(),
+                positions=len(self._positions),
+                proprioception=self._proprioception,
+            )
+            self.step(twist)
+            self._speculations.append(speculation)
+            # Its chain starts at the instant the executive asked for last, under this twist.
+            self._send_state(from_ns=self._asked_ns, twist=twist, droppable=True)
 
     def _keep_speculation(self, target_ns: int, twist: Twist) -> bool:
-        """Whether the step asked for (to ``target_ns`` under ``twist``) begins with the speculative one,
-        which is then kept (True); otherwise any speculative step is taken back (False)."""
-        speculation = self._speculation
-        if speculation is None:
+        """Whether the step asked for (to ``target_ns`` under ``twist``) begins with the first speculative
+        one, which is then kept (True); otherwise every speculative step is taken back (False)."""
+        if not self._speculations:
             return False
-        if (
-            same_twist_bits(speculation.twist, twist)
-            and speculation.from_ns + self._period_ns // 2 < target_ns
-        ):
-            self._speculation = None
-            self._speculated["kept"] += 1
+        first = self._speculations[0]
+        if same_twist_bits(first.twist, twist) and first.from_ns + self._period_ns // 2 < target_ns:
+            self._keep_first_speculation()
             return True
         self._take_back_speculation()
         return False
 
+    def _keep_first_speculation(self) -> None:
+        """The first speculative step becomes the executive's: its end is the instant asked for."""
+        first = self._speculations.pop(0)
+        self._asked_from_ns, self._asked_twist = self._asked_ns, first.twist
+        self._asked_ns = first.from_ns + self._period_ns
+        self._speculated["kept"] += 1
+
     def _take_back_speculation(self) -> None:
         """Back to the instant the executive last asked for (idempotent)."""
-        speculation = self._speculation
-        if speculation is None:
+        if not self._speculations:
             return
-        self._speculation = None
-        self.robot.restore(speculation.robot)
-        self._steps -= 1
-        self._last_twist = speculation.last_twist
-        self._proprioception = speculation.proprioception
-        del self._positions[speculation.positions :]
-        self._speculated["taken_back"] += 1
+        first = self._speculations[0]
+        self.robot.restore(first.robot)
+        self._steps -= len(self._speculations)
+        self._proprioception = first.proprioception
+        del self._positions[first.positions :]
+        self._speculated["taken_back"] += len(self._speculations)
+        self._speculations.clear()
 
     def _on_camera_request(self, msg: Any) -> None:
         try:
@@ -711,7 +725,7 @@ class SimBridge:
         # Ahead again while the executive reads the frames, so that its next step needs no wait either;
         # not before its first step: until it has asked for one, every state it gets is its start.
         if self._steps > 0:
-            self._speculate(self._last_twist)
+            self._speculate(self._asked_twist)
 
     def _on_outcome(self, msg: Any) -> None:
         at_ns = None

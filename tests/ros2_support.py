@@ -44,8 +44,6 @@ def isolated_env(domain_id: int, **extra: str) -> dict[str, str]:
         FASTRTPS_DEFAULT_PROFILES_FILE=str(LOOPBACK_PROFILE),
         FASTDDS_DEFAULT_PROFILES_FILE=str(LOOPBACK_PROFILE),
         ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
-        # UDP only, as scripts/ros2_isolated.sh says why (a killed peer's shared-memory lock).
-        FASTDDS_BUILTIN_TRANSPORTS="UDPv4",
         ROS_DOMAIN_ID=str(domain_id),
         RMW_IMPLEMENTATION="rmw_fastrtps_cpp",
         MUJOCO_GL="egl",

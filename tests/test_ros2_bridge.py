@@ -20,7 +20,7 @@ pytest.importorskip("rclpy", reason="the ROS 2 environment (make ros2-env) provi
 from robots.ros2_messages import fill_stamp, fill_twist
 from robots.ros2_sim_protocol import CameraRequest, Outcome, encode_camera_request, encode_outcome
 from semexp_bt.core.types import Twist
-from sims.ros2_bridge import CONTROL_PERIOD_S, BridgeOptions, SimBridge
+from sims.ros2_bridge import CONTROL_PERIOD_S, SPECULATION_DEPTH, BridgeOptions, SimBridge
 from tests.ros2_support import fresh_domain_id, isolate_this_process
 
 PERIOD_NS = int(round(CONTROL_PERIOD_S * 1e9))
@@ -70,9 +70,13 @@ def test_a_render_asked_before_its_step_arrives_is_of_the_executives_instant(
     first, second = start + PERIOD_NS, start + 2 * PERIOD_NS
     for bridge in bridges:
         _step(bridge, first, TURN)
-    assert ahead._speculation is not None and ahead._speculation.from_ns == first  # the state went ahead
-    # The executive took that state and then asked for a depth render at `second`, whose step ask is still
-    # on its way: the bridge keeps its speculative step and renders there.
+    # The states of the steps ahead went out.
+    assert [s.from_ns for s in ahead._speculations] == [
+        first + k * PERIOD_NS for k in range(SPECULATION_DEPTH)
+    ]
+    assert not in_order._speculations
+    # The executive took the first one and then asked for a depth render at `second`, whose step ask is
+    # still on its way: the bridge keeps that speculative step, takes back the rest and renders there.
     request = _text(encode_camera_request(CameraRequest(kind="depth", at_ns=second)))
     kept = ahead._speculated["kept"]
     ahead._on_camera_request(request)
@@ -103,11 +107,12 @@ def test_an_outcome_before_the_last_steps_ask_ends_the_episode_at_the_executives
     ahead, _ = bridges
     last = ahead._asked_ns + PERIOD_NS
     _step(ahead, last, TURN)
-    end = last + PERIOD_NS  # the executive took the state sent ahead for `end`, then ended the mission
+    # The executive took every state sent ahead, then ended the mission.
+    end = last + SPECULATION_DEPTH * PERIOD_NS
     ahead._on_outcome(_text(encode_outcome(Outcome("budget_exceeded", [], at_ns=end))))
     print({"asked_ns": ahead._asked_ns, "errors": ahead._errors, "stop": ahead._stop_reason})
     assert ahead._stop_reason == "mission_end" and ahead._outcome is not None
-    assert ahead._asked_ns == end and ahead._now_ns() == end and ahead._speculation is None
+    assert ahead._asked_ns == end and ahead._now_ns() == end and not ahead._speculations
     assert not ahead._errors
     result = ahead.result(wall_s=1.0)
     assert json.dumps(result)  # the scoring is written as JSON

@@ -231,6 +231,7 @@ def test_a_step_state_round_trips_to_the_bit_and_bad_payloads_are_named() -> Non
         orientation_xyzw=(0.0, 0.0, math.sin(0.1), math.cos(0.1)),
         twist=Twist(0.3, -1e-17, 0.7),
         step_twist=Twist(0.25, -0.0, 1.0 / 3.0),
+        from_ns=599_960_000_000,
         imu=(math.cos(0.1), 0.0, 0.0, math.sin(0.1), 1e-3 / 3, 0.0, -0.2, 0.01, -0.02, 9.81),
         joint_position_rad=(0.1, 0.8 / 3, -1.5),
         joint_velocity_radps=(0.0, -1e-9, 2.0 / 3),
@@ -244,14 +245,14 @@ def test_a_step_state_round_trips_to_the_bit_and_bad_payloads_are_named() -> Non
     assert imu.orientation_wxyz.tolist() == list(state.imu[:4])
     assert imu.linear_acceleration_mps2.tolist() == list(state.imu[7:])
     assert decoded.joint_state().velocity_radps.tolist() == list(state.joint_velocity_radps)
-    with pytest.raises(SimProtocolError, match=r"/sim/state: expected 31 values \(25 and 3 joints"):
+    with pytest.raises(SimProtocolError, match=r"/sim/state: expected 32 values \(26 and 3 joints"):
         decode_state(values[:-1], joints=3)
     with pytest.raises(SimProtocolError, match="/sim/state: field 'orientation_w' must be finite"):
         decode_state([*values[:8], math.nan, *values[9:]], joints=3)
     with pytest.raises(SimProtocolError, match="/sim/state: field 'imu_linear_acceleration_z_mps2' must be"):
-        decode_state([*values[:24], math.inf, *values[25:]], joints=3)
+        decode_state([*values[:25], math.inf, *values[26:]], joints=3)
     with pytest.raises(SimProtocolError, match="/sim/state: field 'joint value 4' must be finite"):
-        decode_state([*values[:29], math.nan, *values[30:]], joints=3)
+        decode_state([*values[:30], math.nan, *values[31:]], joints=3)
     with pytest.raises(SimProtocolError, match="not exact in a float64"):
         encode_state(dataclasses.replace(state, stamp_ns=2**53))
     with pytest.raises(SimProtocolError, match="as many joint velocities as positions"):
