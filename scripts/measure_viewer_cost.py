@@ -14,6 +14,8 @@ mission divides by few simulated seconds:
 - ``off``: no recorder, no view (what ``semexp-bt run`` costs);
 - ``record``: ``--record`` (the JSONL tick record alone, for reference);
 - ``view``: ``--view-record DIR`` (tree records, world frames logged to world.rrd by the worker);
+- ``live_only``: ``--view`` alone (the page and Rerun's gRPC stream served, nothing saved): what a user
+  runs to watch a mission;
 - ``live``: ``--view`` and ``--view-record`` with the page and Rerun's gRPC stream served;
 - ``stalled``: as ``live``, with four clients that ask the page for ticks and never read the answer,
   and a Rerun viewer that pulls the gRPC stream and then freezes: ``rerun URL --save FILE`` (Rerun's own
@@ -42,7 +44,7 @@ import urllib.request
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-CONFIGS = ("off", "record", "view", "live", "stalled")
+CONFIGS = ("off", "record", "view", "live_only", "live", "stalled")
 
 
 def _children_cpu_s() -> float:
@@ -91,6 +93,11 @@ def one_run(config: str, sim_s: float, workdir: Path) -> dict[str, float]:
     frozen: dict[str, float] = {}
 
     def hold(view: ViewObserver, outcome: str) -> None:
+        # A live view's drops (one without --view-record writes no manifest).
+        frozen["frames_dropped"], frozen["frames_queued"] = (
+            float(view.frames_dropped),
+            float(view.frames_queued),
+        )
         for client in stalls:
             client.close()
         for viewer in frozen_viewers:
@@ -103,10 +110,10 @@ def one_run(config: str, sim_s: float, workdir: Path) -> dict[str, float]:
             viewer.wait(timeout=10.0)
 
     view = None
-    if config in ("view", "live", "stalled"):
+    if config in ("view", "live_only", "live", "stalled"):
         view = ViewOptions(
             live=config != "view",
-            record_dir=workdir / "view",
+            record_dir=None if config == "live_only" else workdir / "view",
             announce=stall if config == "stalled" else None,
             after_mission=hold,
         )
@@ -130,7 +137,7 @@ def one_run(config: str, sim_s: float, workdir: Path) -> dict[str, float]:
            "tick_p50_ms": record["tick_wall_ms"]["median"], "tick_p99_ms": record["tick_wall_ms"]["p99"]}  # fmt: skip
     out.update(frozen)
     manifest = workdir / "view" / "manifest.json"
-    if manifest.is_file():
+    if "frames_dropped" not in out and manifest.is_file():  # a saved view alone: its manifest counts them
         frames = json.loads(manifest.read_text())["frames"]
         out["frames_dropped"], out["frames_queued"] = frames["dropped"], frames["queued"]
     return out

@@ -55,7 +55,13 @@ EXECUTIVE_CALLS = (
             "_send_command",
             "_request_frame",
             "_observation",
+            "_on_state",
+            "_step_to",
         )
+    ),
+    *(
+        f"robots.ros2_backend:{name}"
+        for name in ("image_to_depth_m", "image_to_rgb", "image_to_segmentation", "camera_info_to_intrinsics")
     ),
     "rclpy.publisher:Publisher.publish",
     # The navigation stack's hot calls: the same work as in process, so a per-call cost above the
@@ -71,6 +77,8 @@ BRIDGE_CALLS = (
         for name in (
             "_on_step",
             "_speculate",
+            "_send_state",
+            "_catch_up",
             "_take_back_speculation",
             "step",
             "publish_state",
@@ -84,6 +92,10 @@ BRIDGE_CALLS = (
         for name in ("base_odometry", "base_twist", "imu", "joint_state", "observe", "observe_depth", "now_s")
     ),
     "sims.ros2_bridge:fill_odometry",
+    *(
+        f"sims.ros2_bridge:{name}"
+        for name in ("fill_camera_info", "fill_depth_image", "fill_rgb_image", "fill_segmentation_image")
+    ),
     "rclpy.publisher:Publisher.publish",
 )
 #: Calls whose every duration is kept (their distribution, not only the mean).
