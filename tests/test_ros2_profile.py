@@ -27,7 +27,10 @@ from robots.ros2_profile import (
     profile_from_dict,
 )
 from robots.ros2_sim_protocol import (
+    CAMERA_REQUEST_TOPIC,
+    OUTCOME_TOPIC,
     STATE_FIELDS,
+    STEP_TOPIC,
     CameraRequest,
     Outcome,
     SimProtocolError,
@@ -275,3 +278,31 @@ def test_the_default_path_never_imports_rclpy() -> None:
     )
     out = subprocess.run([sys.executable, "-c", probe], cwd=ROOT, capture_output=True, text=True, check=True)
     assert out.stdout.strip().splitlines()[-1] == "[]"
+
+
+def test_the_bridge_reads_what_the_executive_sends_on_udp_only() -> None:
+    # The loopback profile gives the bridge's readers of the executive's topics a UDP locator of their own,
+    # so that a killed bridge's shared-memory port cannot stall the executive's publishes
+    # (scripts/fastdds_loopback.xml; docs/ros2.md, "What the watchdogs do"). A topic added on that side
+    # without its profile would bring the stall back.
+    import xml.etree.ElementTree as ET
+
+    namespace = {"p": "http://www.eprosima.com/XMLSchemas/fastRTPS_Profiles"}
+    profiles = ET.parse(ROOT / "scripts" / "fastdds_loopback.xml").getroot()
+    udp_only = {}
+    for reader in profiles.findall("p:data_reader", namespace):
+        addresses = [
+            a.text for a in reader.findall("p:unicastLocatorList/p:locator/p:udpv4/p:address", namespace)
+        ]
+        kinds = [
+            child.tag.split("}")[1] for child in reader.findall("p:unicastLocatorList/p:locator/*", namespace)
+        ]
+        udp_only[reader.get("profile_name")] = addresses == ["127.0.0.1"] and kinds == ["udpv4"]
+    print(udp_only)
+    sent_to_the_bridge = {
+        STEP_TOPIC,
+        CAMERA_REQUEST_TOPIC,
+        OUTCOME_TOPIC,
+        load_ros2_profile(None).topics.cmd_vel,
+    }
+    assert {topic for topic, only in udp_only.items() if only} == sent_to_the_bridge
