@@ -102,16 +102,8 @@ class SubscriptionPump:
                 wait_set.add_subscription(subscription.handle)
             wait_set.wait(max(int(timeout_s * 1e9), 0))
             ready = wait_set.get_ready_entities("subscription")
-        ran = 0
-        for subscription in subscriptions:
-            if subscription.handle.pointer not in ready:
-                continue
-            with subscription.handle:
-                taken = subscription.handle.take_message(subscription.msg_type, subscription.raw)
-            if taken is not None:  # ready, yet taken by nobody else: None only if the message expired
-                subscription.callback(taken[0])
-                ran += 1
-        return ran
+        # Ready, yet a take may find nothing: only if the message expired.
+        return sum(_take_one(s) for s in subscriptions if s.handle.pointer in ready)
 
     @staticmethod
     def drain(subscriptions: Sequence[Any]) -> int:
@@ -119,12 +111,7 @@ class SubscriptionPump:
         each one's callback here; how many ran."""
         ran = 0
         for subscription in subscriptions:
-            while True:
-                with subscription.handle:
-                    taken = subscription.handle.take_message(subscription.msg_type, subscription.raw)
-                if taken is None:
-                    break
-                subscription.callback(taken[0])
+            while _take_one(subscription):
                 ran += 1
         return ran
 
@@ -134,12 +121,8 @@ class SubscriptionPump:
         ``spin_s`` has passed (0), yielding the core between rounds."""
         end = time.perf_counter() + spin_s
         while True:
-            for subscription in subscriptions:
-                with subscription.handle:
-                    taken = subscription.handle.take_message(subscription.msg_type, subscription.raw)
-                if taken is not None:
-                    subscription.callback(taken[0])
-                    return 1
+            if any(_take_one(subscription) for subscription in subscriptions):
+                return 1
             if time.perf_counter() >= end:
                 return 0
             os.sched_yield()
@@ -149,6 +132,17 @@ class SubscriptionPump:
         if self._wait_set is not None:
             self._wait_set.destroy_when_not_in_use()
             self._wait_set = None
+
+
+def _take_one(subscription: Any) -> bool:
+    """Take the oldest message waiting on ``subscription`` and run its callback here; whether there was
+    one."""
+    with subscription.handle:
+        taken = subscription.handle.take_message(subscription.msg_type, subscription.raw)
+    if taken is None:
+        return False
+    subscription.callback(taken[0])
+    return True
 
 
 __all__ = ["CallerTakes", "SubscriptionPump"]

@@ -11,7 +11,7 @@ simulation has travels here, never on those:
 | ``/sim/camera/segmentation`` | sensor_msgs/Image 16UC1 (id + 1) | bridge -> executive | the segmentation of each full frame, stamped as the colour frame |
 | ``/sim/outcome`` | std_msgs/String (JSON), transient local | executive -> bridge | the mission's declared outcome and confirmed targets, and the instant it ended at, for the bridge's scoring |
 | ``/sim/time`` | std_msgs/Float64 | bridge -> executive | the simulator's clock in float seconds (``/clock`` is its nanosecond rounding); the lockstep executive's clock, so that its time comparisons are the in-process run's to the bit |
-| ``/sim/state`` | std_msgs/Float64MultiArray (:data:`STATE_FIELDS`), best effort | bridge -> executive | lockstep: after each step, the one reply: the step's stamp, the float clock, the odometry, the IMU and the joints (the values ``/odom``, ``/sim/time``, ``/imu`` and ``/joint_states`` carry), and the twist the step was made with, so that a step costs one message and one wake-up; also the next step's state, sent ahead under the same twist (the executive takes it without a wait when it asks for that step: sims/ros2_bridge.py, ``Speculation``) |
+| ``/sim/state`` | std_msgs/Float64MultiArray (:data:`STATE_FIELDS`), best effort | bridge -> executive | lockstep: after each step, the one reply: the step's stamp, the float clock, the odometry, the IMU and the joints (the values ``/odom``, ``/sim/time``, ``/imu`` and ``/joint_states`` carry), and the twist the steps were made with and the instant they started from, so that a step costs one message and one wake-up; also the states of the steps the bridge takes ahead (``SPECULATION_DEPTH``), sent at once (the executive takes one without a wait when it asks for that step under that twist: sims/ros2_bridge.py, ``Speculation``) |
 | ``/sim/heartbeat`` | std_msgs/Header | bridge -> executive | every 0.1 s from a thread of its own: the bridge is alive, if busy (a lockstep wait halts only after the deadline passes without it) |
 
 Every other ``/sim/...`` topic is reliable. The bridge keeps the ground truth (where things are, which object is reached, collisions) to itself and
@@ -445,8 +445,8 @@ __all__ = [
     "decode_simulation_info",
     "decode_state",
     "encode_camera_request",
-    "same_twist_bits",
     "encode_outcome",
     "encode_simulation_info",
     "encode_state",
+    "same_twist_bits",
 ]

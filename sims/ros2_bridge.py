@@ -434,12 +434,14 @@ class SimBridge:
             self._send_state(from_ns=self._asked_from_ns, twist=self._asked_twist, heartbeat=heartbeat)
         self._publish_streams(heartbeat=heartbeat)
 
-    def _proprioception_now(self, *, heartbeat: bool) -> tuple[ImuReading, JointState]:
-        """The IMU and joint reading to send: read again every PROPRIOCEPTION_EVERY steps or on a
-        heartbeat, else the last one read."""
-        if self._proprioception is None or self._steps % PROPRIOCEPTION_EVERY == 0 or heartbeat:
-            self._proprioception = (self.robot.imu(), self.robot.joint_state())
-        return self._proprioception
+    def _proprioception_now(self, *, heartbeat: bool) -> tuple[ImuReading, JointState, bool]:
+        """The IMU and joint reading to send, and whether it was read now: every PROPRIOCEPTION_EVERY
+        steps or on a heartbeat, else the last one read is sent again."""
+        proprioception = self._proprioception
+        fresh = proprioception is None or self._steps % PROPRIOCEPTION_EVERY == 0 or heartbeat
+        if fresh or proprioception is None:
+            proprioception = self._proprioception = (self.robot.imu(), self.robot.joint_state())
+        return (*proprioception, fresh)
 
     def _send_state(
         self, *, from_ns: int, twist: Twist, heartbeat: bool = False, droppable: bool = False
@@ -459,7 +461,7 @@ class SimBridge:
         # The simulator's own pose values (float64 on the wire): the executive derives its pose and the
         # camera's from them exactly as the in-process backend does (MujocoRobot.base_odometry).
         position, orientation = robot.base_odometry()
-        imu, joints = self._proprioception_now(heartbeat=heartbeat)
+        imu, joints, _ = self._proprioception_now(heartbeat=heartbeat)
         state = self._reused["state"]
         state.data = encode_state(
             SimState(
@@ -492,8 +494,7 @@ class SimBridge:
         stamp_s = now_ns * 1e-9
         frames = self.profile.frames
         robot = self.robot
-        fresh = self._proprioception is None or self._steps % PROPRIOCEPTION_EVERY == 0 or heartbeat
-        imu, joints = self._proprioception_now(heartbeat=heartbeat)
+        imu, joints, fresh = self._proprioception_now(heartbeat=heartbeat)
         if wanted["odom"]:
             position, orientation = robot.base_odometry()
             odom = self._reused["odom"]
@@ -738,7 +739,6 @@ class SimBridge:
             self._errors.append(
                 f"{OUTCOME_TOPIC}: the executive ended at {at_ns} ns, the world is at {self._asked_ns} ns"
             )
-            self._take_back_speculation()
         self._stop("mission_end")
 
     # ------------------------------------------------------------------ loops
@@ -800,8 +800,7 @@ class SimBridge:
         while not self._wall_exceeded(wall_start):
             self._pump.pump(HEARTBEAT_S / 5, spin_on=self._requests, spin_s=LOCKSTEP_SPIN_S)
             if time.monotonic() - self._last_step_wall_s > HEARTBEAT_S:
-                self._take_back_speculation()  # republish the state the executive was sent
-                self.publish_state(heartbeat=True)
+                self.publish_state(heartbeat=True)  # the state the executive was sent, again
                 self._last_step_wall_s = time.monotonic()
 
     def _run_realtime(self, wall_start: float) -> None:
