@@ -926,8 +926,10 @@ class Ros2Robot(Robot):
             return all(self._arrivals[s] > seen[s] and self._latest[s].stamp_ns == now for s in wanted)
 
         # The step ask is sent again meanwhile: a render of an instant the bridge has not reached waits for
-        # it there (the executive may have taken that step's state ahead of a lost ask).
-        if not self._await_bridge(arrived, deadline, resend=self._resend_step):
+        # it there (the executive may have taken that step's state ahead of a lost ask). Before the first
+        # step there is no ask to send.
+        resend = None if self._asked is None else self._resend_step
+        if not self._await_bridge(arrived, deadline, resend=resend):
             missing = [s for s in wanted if not (self._arrivals[s] > seen[s])]
             stream = missing[0] if missing else "depth_image"
             topic = SEGMENTATION_TOPIC if stream == "segmentation" else self.profile.topic_of(stream)

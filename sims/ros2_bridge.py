@@ -663,6 +663,9 @@ class SimBridge:
             self._take_back_speculation()  # one twist per chain
         while (
             len(self._speculations) < SPECULATION_DEPTH
+            # Not before the executive's first step (a render's resend of its empty ask included): until it
+            # has asked for one, every state it gets is its start.
+            and self._steps > 0
             and self.options.speculate
             and self._gait is None  # kinematic: MujocoRobot.snapshot
             and self._stop_reason is None
@@ -723,10 +726,8 @@ class SimBridge:
             self._pending_renders.append(request)
             return
         self.publish_frame(request)  # of the instant the executive has
-        # Ahead again while the executive reads the frames, so that its next step needs no wait either;
-        # not before its first step: until it has asked for one, every state it gets is its start.
-        if self._steps > 0:
-            self._speculate(self._asked_twist)
+        # Ahead again while the executive reads the frames, so that its next step needs no wait either.
+        self._speculate(self._asked_twist)
 
     def _on_outcome(self, msg: Any) -> None:
         at_ns = None

@@ -117,3 +117,22 @@ def test_an_outcome_before_the_last_steps_ask_ends_the_episode_at_the_executives
     result = ahead.result(wall_s=1.0)
     assert json.dumps(result)  # the scoring is written as JSON
     assert result["outcome"] == "budget_exceeded"
+
+
+def test_nothing_is_taken_ahead_of_the_first_step(bridges: tuple[SimBridge, SimBridge]) -> None:
+    # A render's wait resends the last step ask; a bridge asked for its start instant before any step (an
+    # empty ask) answers with the start and takes no step ahead: the executive takes every state it gets
+    # before its first step as its start.
+    del bridges  # only for the process's isolation
+    fresh = SimBridge(BridgeOptions(scene="showroom", seed=9))
+    try:
+        _step(fresh, 0, Twist.zero())
+        assert not fresh._speculations and fresh._step_replies["sent"] == 1  # the start, and nothing ahead
+        fresh._on_camera_request(_text(encode_camera_request(CameraRequest(kind="depth", at_ns=0))))
+        print({"asked_ns": fresh._asked_ns, "speculations": len(fresh._speculations), "steps": fresh._steps})
+        assert fresh._asked_ns == 0 and fresh._steps == 0 and not fresh._speculations
+        assert fresh._step_replies["repeated"] == 1 and fresh._frame_log[-1][0] == 0
+        _step(fresh, PERIOD_NS, TURN)  # the first step: from here on it steps ahead
+        assert len(fresh._speculations) == SPECULATION_DEPTH
+    finally:
+        fresh.close()
