@@ -2,7 +2,9 @@
 
 A start is valid when the robot centre stands on a free cell of the inflated occupancy grid (see
 :mod:`sims.occupancy`) at least :data:`~sims.robot_footprint.START_CLEARANCE_M` from every obstacle
-(so no start yaw puts the body in contact), the goal's success region is reachable from it, and its L* (the oracle's
+(so no start yaw puts the body in contact), the goal's success region is reachable from it, and deeper than its
+rim (:data:`~sims.scenes.placement.GOAL_APPROACH_MARGIN_M` inside the success radius, as the scene's layout
+rule asks), and its L* (the oracle's
 :meth:`~sims.geodesic.GeodesicOracle.distance_to_object` with the success radius) is at least the
 minimum geodesic distance. The minimum is the scene's ``min_geodesic_m`` (``scene.extra``, from its
 YAML data: 3.0 m for the large simulation scenes, less for the 30-50 m^2 real-world analogues) unless
@@ -28,7 +30,7 @@ from semexp_bt.core.scene import SceneSpec
 from semexp_bt.core.types import InvalidInputError, Pose2D
 from sims.geodesic import GeodesicOracle
 from sims.robot_footprint import START_CLEARANCE_M
-from sims.scenes.placement import DEFAULT_MIN_GEODESIC_M, GOAL_SUCCESS_RADIUS_M
+from sims.scenes.placement import DEFAULT_MIN_GEODESIC_M, GOAL_APPROACH_MARGIN_M, GOAL_SUCCESS_RADIUS_M
 
 __all__ = [
     "GOAL_SUCCESS_RADIUS_M",
@@ -123,6 +125,14 @@ def sample_episode(
     field = oracle.object_distance_field(scene.goal_object_id, success_radius_m=success_radius_m)
     # Field values over-estimate the smoothed L* by < 3 %, so this pre-filter loses almost no starts
     # and the exact check below keeps the guarantee.
+    approach_m = success_radius_m - GOAL_APPROACH_MARGIN_M
+    # A start cut off from all but the success region's rim is redrawn (checked per draw, after the draw, so
+    # that the draws of every other start stay what they were).
+    approach = (
+        oracle.object_distance_field(scene.goal_object_id, success_radius_m=approach_m)
+        if approach_m > 0
+        else field
+    )
     roomy = oracle.occupancy.clearance_m >= START_CLEARANCE_M
     rows, cols = np.nonzero(np.isfinite(field) & (field >= minimum) & roomy)
     if rows.size == 0:
@@ -141,7 +151,8 @@ def sample_episode(
         xy = np.round(corner + rng.uniform(0.01, 0.99, size=2) * geometry.resolution_m, 4)
         yaw = float(rng.uniform(-math.pi, math.pi))
         length = oracle.distance_to_object(xy, scene.goal_object_id, success_radius_m=success_radius_m)
-        if oracle.is_free(xy) and math.isfinite(length) and length >= minimum:
+        approachable = math.isfinite(oracle.field_value(approach, xy))
+        if oracle.is_free(xy) and math.isfinite(length) and length >= minimum and approachable:
             return Episode(
                 scene_name=scene.name,
                 scene_seed=scene.seed,

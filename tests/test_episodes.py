@@ -6,6 +6,7 @@ import json
 import math
 from functools import cache
 
+import numpy as np
 import pytest
 
 from semexp_bt.core.scene import SceneObject, SceneSpec
@@ -14,6 +15,7 @@ from sims.catalogue import build_scene, list_scenes
 from sims.episodes import GOAL_SUCCESS_RADIUS_M, EpisodeSamplingError, sample_episode, scene_min_geodesic_m
 from sims.geodesic import GeodesicOracle
 from sims.robot_footprint import START_CLEARANCE_M
+from sims.scenes.placement import GOAL_APPROACH_MARGIN_M
 
 #: The per-scene minimum L* documented in docs/scenes.md.
 DOCUMENTED_MIN_GEODESIC_M = {
@@ -105,6 +107,28 @@ def test_a_goal_sealed_off_from_everywhere_raises() -> None:
     spec = SceneSpec("pen", "Pen", 0, (0.0, 0.0, 6.5, 4.0), pen, 0, "find the cup", "cup")
     with pytest.raises(EpisodeSamplingError):
         sample_episode(spec, seed=0, min_geodesic_m=1.0)
+
+
+def test_a_goal_reachable_only_on_the_rim_of_its_success_region_gives_no_episode() -> None:
+    # The cup sits in a closed pen 0.55 m from its boundary: free cells (for the 0.30 m disc) begin 0.85 m
+    # from it, inside r_s = 1.0 m but not GOAL_APPROACH_MARGIN_M (0.2 m) inside it.
+    def wall(i: int, x: float, y: float, hx: float, hy: float) -> SceneObject:
+        return SceneObject(i, f"pen_{i}", "wall", "wall", "box", (x, y, 0.5), (hx, hy, 0.5), role="wall")
+
+    goal = SceneObject(0, "cup", "cup", "cup", "cylinder", (5.0, 2.0, 0.1), (0.05, 0.05, 0.1), role="goal")
+    pen = (goal, wall(1, 5.0, 1.45, 0.6, 0.05), wall(2, 5.0, 2.55, 0.6, 0.05), wall(3, 4.45, 2.0, 0.05, 0.6),
+           wall(4, 5.55, 2.0, 0.05, 0.6))  # fmt: skip
+    spec = SceneSpec("rim", "Rim", 0, (0.0, 0.0, 6.5, 4.0), pen, 0, "find the cup", "cup")
+    oracle = GeodesicOracle(spec)
+    rim = oracle.object_distance_field(0, success_radius_m=GOAL_SUCCESS_RADIUS_M)
+    print(f"free cells that reach r_s: {int(np.isfinite(rim).sum())}")
+    assert np.isfinite(rim).any()  # the rim is reachable: L* exists
+    approach = oracle.object_distance_field(
+        0, success_radius_m=GOAL_SUCCESS_RADIUS_M - GOAL_APPROACH_MARGIN_M
+    )
+    assert not np.isfinite(approach).any()
+    with pytest.raises(EpisodeSamplingError):
+        sample_episode(spec, seed=0, min_geodesic_m=1.0, oracle=oracle)
 
 
 def test_bad_arguments_are_rejected() -> None:

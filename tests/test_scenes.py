@@ -19,7 +19,12 @@ from sims.geodesic import GeodesicOracle
 from sims.naming import named_objects
 from sims.occupancy import GridGeometry, rasterise_object
 from sims.scenes import placement
-from sims.scenes.placement import GOAL_SUCCESS_RADIUS_M, SceneDataError, load_scene_data
+from sims.scenes.placement import (
+    GOAL_APPROACH_MARGIN_M,
+    GOAL_SUCCESS_RADIUS_M,
+    SceneDataError,
+    load_scene_data,
+)
 
 SEEDS = range(20)
 
@@ -56,6 +61,10 @@ def test_every_seed_builds_with_a_reachable_goal(name: str) -> None:
         field = oracle.object_distance_field(spec.goal_object_id, success_radius_m=GOAL_SUCCESS_RADIUS_M)
         reachable = np.isfinite(field)
         assert reachable.any(), f"{name} seed {seed}: goal unreachable"
+        # Deeper than the success region's rim: the robot can stand well inside r_s.
+        inner = GOAL_SUCCESS_RADIUS_M - GOAL_APPROACH_MARGIN_M
+        approach = oracle.object_distance_field(spec.goal_object_id, success_radius_m=inner)
+        assert np.isfinite(approach).any(), f"{name} seed {seed}: goal reachable only on the rim of r_s"
         # Somewhere reachable is far enough for an episode: the sampler's minimum is feasible.
         assert field[reachable].max() >= spec.extra["min_geodesic_m"], f"{name} seed {seed}"
 

@@ -18,9 +18,15 @@ Seed rule: layout attempt ``k`` of scene ``name`` with seed ``s`` draws from
 ``numpy.random.default_rng(SeedSequence([crc32(name), s, k]))``. An attempt is rejected when an obstacle
 would overlap another or leave the bounds (after :data:`PLACEMENT_DRAWS` draws), or when the goal is not
 reachable: the free cells within the success radius of the goal's footprint must touch the largest
-8-connected free region of the inflated occupancy grid, and that region must hold a cell at least the
-scene's ``min_geodesic_m`` (Euclidean, hence also geodesic) from them. After :data:`MAX_LAYOUT_ATTEMPTS`
-rejected attempts the build raises :class:`SceneLayoutError`.
+8-connected free region of the inflated occupancy grid, some of them at least :data:`GOAL_APPROACH_MARGIN_M`
+inside it, and that region must hold a cell at least the scene's ``min_geodesic_m`` (Euclidean, hence also
+geodesic) from them. After :data:`MAX_LAYOUT_ATTEMPTS` rejected attempts the build raises
+:class:`SceneLayoutError`.
+
+Why a margin inside the success radius (docs/scenes.md, "A goal the robot can stand beside"): a goal in a
+nook, behind a table or across a wall may have free cells within r_s only on its rim, a few centimetres
+deep; a robot stands there only by luck, and the confirmation, which declares from 0.05 m inside r_s, never
+can. Such a layout is not a search problem.
 """
 
 from __future__ import annotations
@@ -57,6 +63,10 @@ PLACEMENT_DRAWS = 25
 #: Success radius (m) around the goal's footprint used by the reachability check; the same value is
 #: the episode sampler's default (``sims.episodes.GOAL_SUCCESS_RADIUS_M``).
 GOAL_SUCCESS_RADIUS_M = 1.0
+#: How far inside the success radius (m) the disc robot must be able to stand beside the goal: the
+#: controller stops up to 0.15 m off a plan's end (FollowPath's ``path_end_tolerance_m``) and the
+#: confirmation declares only 0.05 m inside r_s (ConfirmTarget's ``declare_margin_m``).
+GOAL_APPROACH_MARGIN_M = 0.2
 #: Minimum start-to-goal geodesic (m) when a scene's data does not name one.
 DEFAULT_MIN_GEODESIC_M = 3.0
 
@@ -386,10 +396,10 @@ def _goal_reachable(scene: SceneSpec, *, min_geodesic_m: float) -> bool:
         scene, resolution_m=DEFAULT_RESOLUTION_M, robot_radius_m=ROBOT_RADIUS_M
     )
     region = occupancy.largest_free_component()
-    footprint = rasterise_object(scene.goal, occupancy.geometry)
-    goal_zone = (distance_to_mask_m(footprint, occupancy.geometry) <= GOAL_SUCCESS_RADIUS_M) & region
-    if not goal_zone.any():
+    to_goal_m = distance_to_mask_m(rasterise_object(scene.goal, occupancy.geometry), occupancy.geometry)
+    if not ((to_goal_m <= GOAL_SUCCESS_RADIUS_M - GOAL_APPROACH_MARGIN_M) & region).any():
         return False
+    goal_zone = (to_goal_m <= GOAL_SUCCESS_RADIUS_M) & region
     return bool((distance_to_mask_m(goal_zone, occupancy.geometry)[region] >= min_geodesic_m).any())
 
 
@@ -437,7 +447,7 @@ def build_scene_from_data(name: str, *, seed: int, max_attempts: int = MAX_LAYOU
         )
         if _goal_reachable(scene, min_geodesic_m=min_geodesic):
             return scene
-        failure = "goal not reachable from the largest free region"
+        failure = "goal not approachable from the largest free region"
     raise SceneLayoutError(
         f"scene '{name}' seed {seed}: no valid layout in {max_attempts} attempts (last: {failure})"
     )
