@@ -96,29 +96,30 @@ def test_a_larger_minimum_is_respected_and_an_impossible_one_raises() -> None:
         sample_episode(spec, seed=0, min_geodesic_m=40.0, oracle=oracle)
 
 
-def test_a_goal_sealed_off_from_everywhere_raises() -> None:
-    # A 6 x 4 m room whose goal sits inside a closed pen: no start can reach it.
+def cup_in_a_pen(wall_centre_m: float) -> SceneSpec:
+    """A 6.5 x 4 m room whose goal, a cup at (5, 2), sits inside a closed square pen of 0.1 m thick walls
+    ``wall_centre_m`` from it."""
+
     def wall(i: int, x: float, y: float, hx: float, hy: float) -> SceneObject:
         return SceneObject(i, f"pen_{i}", "wall", "wall", "box", (x, y, 0.5), (hx, hy, 0.5), role="wall")
 
+    d, half = wall_centre_m, wall_centre_m + 0.05
     goal = SceneObject(0, "cup", "cup", "cup", "cylinder", (5.0, 2.0, 0.1), (0.05, 0.05, 0.1), role="goal")
-    pen = (goal, wall(1, 5.0, 1.0, 0.8, 0.05), wall(2, 5.0, 3.0, 0.8, 0.05), wall(3, 4.2, 2.0, 0.05, 1.0),
-           wall(4, 5.8, 2.0, 0.05, 1.0))  # fmt: skip
-    spec = SceneSpec("pen", "Pen", 0, (0.0, 0.0, 6.5, 4.0), pen, 0, "find the cup", "cup")
+    pen = (goal, wall(1, 5.0, 2.0 - d, half, 0.05), wall(2, 5.0, 2.0 + d, half, 0.05),
+           wall(3, 5.0 - d, 2.0, 0.05, half), wall(4, 5.0 + d, 2.0, 0.05, half))  # fmt: skip
+    return SceneSpec("pen", "Pen", 0, (0.0, 0.0, 6.5, 4.0), pen, 0, "find the cup", "cup")
+
+
+def test_a_goal_sealed_off_from_everywhere_raises() -> None:
+    # The pen's walls 1.0 m from the cup: no start can reach it.
     with pytest.raises(EpisodeSamplingError):
-        sample_episode(spec, seed=0, min_geodesic_m=1.0)
+        sample_episode(cup_in_a_pen(1.0), seed=0, min_geodesic_m=1.0)
 
 
 def test_a_goal_reachable_only_on_the_rim_of_its_success_region_gives_no_episode() -> None:
-    # The cup sits in a closed pen 0.55 m from its boundary: free cells (for the 0.30 m disc) begin 0.85 m
-    # from it, inside r_s = 1.0 m but not GOAL_APPROACH_MARGIN_M (0.2 m) inside it.
-    def wall(i: int, x: float, y: float, hx: float, hy: float) -> SceneObject:
-        return SceneObject(i, f"pen_{i}", "wall", "wall", "box", (x, y, 0.5), (hx, hy, 0.5), role="wall")
-
-    goal = SceneObject(0, "cup", "cup", "cup", "cylinder", (5.0, 2.0, 0.1), (0.05, 0.05, 0.1), role="goal")
-    pen = (goal, wall(1, 5.0, 1.45, 0.6, 0.05), wall(2, 5.0, 2.55, 0.6, 0.05), wall(3, 4.45, 2.0, 0.05, 0.6),
-           wall(4, 5.55, 2.0, 0.05, 0.6))  # fmt: skip
-    spec = SceneSpec("rim", "Rim", 0, (0.0, 0.0, 6.5, 4.0), pen, 0, "find the cup", "cup")
+    # The pen's walls 0.55 m from the cup: free cells (for the 0.30 m disc) begin 0.85 m from its boundary,
+    # inside r_s = 1.0 m but not GOAL_APPROACH_MARGIN_M (0.2 m) inside it.
+    spec = cup_in_a_pen(0.55)
     oracle = GeodesicOracle(spec)
     rim = oracle.object_distance_field(0, success_radius_m=GOAL_SUCCESS_RADIUS_M)
     print(f"free cells that reach r_s: {int(np.isfinite(rim).sum())}")
