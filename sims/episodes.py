@@ -123,8 +123,6 @@ def sample_episode(
     elif oracle.scene is not scene and oracle.scene != scene:
         raise InvalidInputError("oracle was built for a different scene")
     field = oracle.object_distance_field(scene.goal_object_id, success_radius_m=success_radius_m)
-    # Field values over-estimate the smoothed L* by < 3 %, so this pre-filter loses almost no starts
-    # and the exact check below keeps the guarantee.
     approach_m = success_radius_m - GOAL_APPROACH_MARGIN_M
     # A start cut off from all but the success region's rim is redrawn (checked per draw, after the draw, so
     # that the draws of every other start stay what they were).
@@ -133,6 +131,8 @@ def sample_episode(
         if approach_m > 0
         else field
     )
+    # Field values over-estimate the smoothed L* by < 3 %, so this pre-filter loses almost no starts
+    # and the exact check below keeps the guarantee.
     roomy = oracle.occupancy.clearance_m >= START_CLEARANCE_M
     rows, cols = np.nonzero(np.isfinite(field) & (field >= minimum) & roomy)
     if rows.size == 0:
