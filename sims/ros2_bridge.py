@@ -438,10 +438,10 @@ class SimBridge:
         """The IMU and joint reading to send, and whether it was read now: every PROPRIOCEPTION_EVERY
         steps or on a heartbeat, else the last one read is sent again."""
         proprioception = self._proprioception
-        fresh = proprioception is None or self._steps % PROPRIOCEPTION_EVERY == 0 or heartbeat
-        if fresh or proprioception is None:
+        if proprioception is None or heartbeat or self._steps % PROPRIOCEPTION_EVERY == 0:
             proprioception = self._proprioception = (self.robot.imu(), self.robot.joint_state())
-        return (*proprioception, fresh)
+            return (*proprioception, True)
+        return (*proprioception, False)
 
     def _send_state(
         self, *, from_ns: int, twist: Twist, heartbeat: bool = False, droppable: bool = False
