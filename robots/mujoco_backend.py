@@ -28,8 +28,9 @@ kinematic episode. The rays agree with the rendered depth within 1 cm at all but
 
 from __future__ import annotations
 
+import contextlib
 import math
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from typing import Literal
 
@@ -518,6 +519,25 @@ class MujocoRobot(Robot):
         self._in_clearance = set(snapshot.in_clearance)
         self._imu_sample = snapshot.imu_sample
         self._transform_cache = snapshot.transform_cache
+
+    @contextlib.contextmanager
+    def viewed_at(self, snapshot: KinematicSnapshot) -> Iterator[None]:
+        """Inside: the cameras see the world of ``snapshot`` (its pose and clock); after: back to now, to
+        the bit. Unlike :meth:`restore`, the safety record, the events and the velocities stay as they are
+        now: the ROS 2 bridge renders the instant the executive asked for between the steps it has
+        taken ahead of it, and keeps those steps (sims/ros2_bridge.py)."""
+        if self._fidelity != "kinematic":
+            raise InvalidInputError("viewed_at() is kinematic-only")
+        qpos, time_s = self.data.qpos.copy(), float(self.data.time)
+        self.data.qpos[:] = snapshot.qpos
+        self.data.time = snapshot.time_s
+        mujoco.mj_kinematics(self.model, self.data)
+        try:
+            yield
+        finally:
+            self.data.qpos[:] = qpos
+            self.data.time = time_s
+            mujoco.mj_kinematics(self.model, self.data)
 
     def advance(self, duration_s: float) -> None:
         """Step the simulation by ``duration_s`` (rounded to whole physics steps), one control period at a time."""

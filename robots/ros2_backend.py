@@ -59,6 +59,7 @@ from robots.mount import FLANK_SIDES
 from robots.ros2_messages import (
     MessageError,
     camera_info_to_intrinsics,
+    depth_grid_image_to_depth_m,
     fill_stamp,
     fill_twist,
     image_to_depth_m,
@@ -81,6 +82,7 @@ from robots.ros2_profile import (
 )
 from robots.ros2_sim_protocol import (
     CAMERA_REQUEST_TOPIC,
+    DEPTH_GRID_TOPIC,
     HEARTBEAT_TOPIC,
     OUTCOME_TOPIC,
     SCENE_TOPIC,
@@ -406,7 +408,11 @@ class Ros2Robot(Robot):
                 self._store_frame("segmentation"),
                 qos_profile(SIM_QOS),
             )
-            if not lockstep:
+            if lockstep:
+                subscribe(
+                    types["depth_image"], DEPTH_GRID_TOPIC, self._store("depth_grid"), qos_profile(SIM_QOS)
+                )
+            else:
                 subscribe(types["sim_time"], TIME_TOPIC, self._on_sim_time, qos_profile(SIM_QOS))
 
     # ------------------------------------------------------------------ executor thread
@@ -620,7 +626,8 @@ class Ros2Robot(Robot):
         """The topic a stream arrives on (in lockstep, odometry, IMU and joints come on ``/sim/state``)."""
         if self.lockstep and stream in ("odom", "imu", "joint_states"):
             return STATE_TOPIC
-        return self.profile.topic_of(stream)
+        simulation_topics = {"segmentation": SEGMENTATION_TOPIC, "depth_grid": DEPTH_GRID_TOPIC}
+        return simulation_topics.get(stream) or self.profile.topic_of(stream)
 
     def _missing(self) -> list[str]:
         missing = [] if not self.simulation or self._simulation_info is not None else [SCENE_TOPIC]
@@ -911,6 +918,8 @@ class Ros2Robot(Robot):
         now = self._now_ns()
         if request.kind == "side":
             wanted = list(SIDE_DEPTH_STREAMS)
+        elif request.kind == "depth" and request.grids is not None:
+            wanted = ["color_info", "depth_grid"]
         else:
             wanted = ["color_info", "depth_image"] + (
                 ["color_image", "segmentation"] if request.kind == "full" else []
@@ -919,7 +928,7 @@ class Ros2Robot(Robot):
         msg = self._string_msg_type()
         msg.data = encode_camera_request(dataclasses.replace(request, at_ns=now))
         self._request_pub.publish(msg)
-        image = SIDE_DEPTH_STREAMS[0] if request.kind == "side" else "depth_image"
+        image = SIDE_DEPTH_STREAMS[0] if request.kind == "side" else "depth_image"  # whose deadline
         deadline = max(self.profile.deadline_of(image), LOCKSTEP_REPLY_MIN_S)
 
         def arrived() -> bool:
@@ -932,7 +941,7 @@ class Ros2Robot(Robot):
         if not self._await_bridge(arrived, deadline, resend=resend):
             missing = [s for s in wanted if not (self._arrivals[s] > seen[s])]
             stream = missing[0] if missing else "depth_image"
-            topic = SEGMENTATION_TOPIC if stream == "segmentation" else self.profile.topic_of(stream)
+            topic = self._topic_of(stream)
             self._halt_locked(
                 topic,
                 f"the simulation bridge fell silent for {deadline:.2f} s during a render "
@@ -949,9 +958,11 @@ class Ros2Robot(Robot):
         info_stream: str = "color_info",
         depth_stream: str = "depth_image",
         optical_to_base: FloatArray | None = None,
+        grids: Sequence[PixelGrid] | None = None,
     ) -> Observation:
         """Convert a paired frame (call with the lock held): the head camera's, or with ``info_stream``,
-        ``depth_stream`` and ``optical_to_base`` another depth camera's."""
+        ``depth_stream`` and ``optical_to_base`` another depth camera's. With ``grids``, ``depth`` is a
+        lockstep grid image (``DEPTH_GRID_TOPIC``), put back into a whole frame."""
         info = self._latest.get(info_stream)
         if info is None:
             raise RobotHalted(self.profile.topic_of(info_stream), "no camera info yet")
@@ -961,9 +972,14 @@ class Ros2Robot(Robot):
         except MessageError as error:
             self._halt_locked(self.profile.topic_of(info_stream), str(error))
         try:
-            depth_m = image_to_depth_m(depth.msg)
+            if grids is None:
+                depth_m = image_to_depth_m(depth.msg)
+            else:
+                depth_m = depth_grid_image_to_depth_m(
+                    depth.msg, grids, height_px=intrinsics.height_px, width_px=intrinsics.width_px
+                )
         except MessageError as error:
-            self._halt_locked(self.profile.topic_of(depth_stream), str(error))
+            self._halt_locked(self._topic_of(depth_stream), str(error))
         rgb = np.empty((0, 0, 3), dtype=np.uint8)
         if color is not None:
             try:
@@ -1012,6 +1028,10 @@ class Ros2Robot(Robot):
             if self.lockstep:
                 grids = None if pixel_grids is None else tuple(pixel_grids)
                 self._request_frame(CameraRequest(kind="depth", grids=grids))
+                if grids is not None:
+                    return self._observation(
+                        None, self._latest["depth_grid"], None, depth_stream="depth_grid", grids=grids
+                    )
             _, depth, _ = self._latest_pair(need_color=False)
             return self._observation(None, depth, None)
 

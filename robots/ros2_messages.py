@@ -12,6 +12,8 @@ Conventions (realsense-ros and REP-103/105):
   Encoding rounds to the nearest millimetre; NaN (not measured), non-positive and beyond-65.535 m depths
   (as rounded) encode as 0;
 - simulation segmentation (``/sim/...`` only): ``16UC1`` holding ``object id + 1``, 0 = background;
+- a lockstep depth grid (``/sim/...`` only): the aligned depth's ``16UC1`` millimetres at the rows and
+  columns of the pixel grids the executive asked for, the other pixels left out;
 - odometry: the pose of ``child_frame_id`` (``base_link``) in ``header.frame_id`` (``odom``); its twist
   is in the child frame, i.e. the body frame;
 - stamps: ``builtin_interfaces/Time`` <-> float seconds.
@@ -37,6 +39,7 @@ from semexp_bt.core.types import (
     ImuReading,
     InvalidInputError,
     JointState,
+    PixelGrid,
     Pose2D,
     Twist,
 )
@@ -191,6 +194,52 @@ def fill_depth_image(
         raise MessageError(f"depth frame must be (H, W), got {depth_m.shape}")
     fill_header(msg.header, stamp_s=stamp_s, frame_id=frame_id)
     _fill_image(msg, depth_to_millimetres(depth_m), encoding="16UC1", channels=1)
+
+
+def grid_axes(
+    grids: Sequence[PixelGrid], *, height_px: int, width_px: int
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]:
+    """The rows and the columns any of ``grids`` reads in a ``height_px`` x ``width_px`` image, ascending.
+
+    Every pixel the grids read lies on one of these rows and one of these columns; the grid image of
+    :func:`fill_depth_grid_image` is their cross product."""
+    rows = np.unique(np.concatenate([g.indices(height_px) for g in grids] or [np.empty(0, np.int64)]))
+    cols = np.unique(np.concatenate([g.indices(width_px) for g in grids] or [np.empty(0, np.int64)]))
+    return rows.astype(np.int64), cols.astype(np.int64)
+
+
+def fill_depth_grid_image(
+    msg: Any,
+    depth_m: npt.NDArray[np.floating[Any]],
+    grids: Sequence[PixelGrid],
+    *,
+    stamp_s: float,
+    frame_id: str,
+) -> None:
+    """``(H, W)`` metres -> the 16UC1 millimetre image of the pixels on ``grids``' rows and columns only
+    (:func:`grid_axes`), for a lockstep render the executive asked at those grids: a 48-pixel check
+    travels as 96 bytes instead of the whole frame. :func:`depth_grid_image_to_depth_m` puts it back."""
+    if depth_m.ndim != 2:
+        raise MessageError(f"depth frame must be (H, W), got {depth_m.shape}")
+    rows, cols = grid_axes(grids, height_px=depth_m.shape[0], width_px=depth_m.shape[1])
+    fill_depth_image(msg, depth_m[np.ix_(rows, cols)], stamp_s=stamp_s, frame_id=frame_id)
+
+
+def depth_grid_image_to_depth_m(
+    msg: Any, grids: Sequence[PixelGrid], *, height_px: int, width_px: int
+) -> npt.NDArray[np.float32]:
+    """A grid image of :func:`fill_depth_grid_image` -> the ``(height_px, width_px)`` float32 metres that
+    :func:`image_to_depth_m` gives for the whole frame on those pixels, 0 (no depth) off them."""
+    rows, cols = grid_axes(grids, height_px=height_px, width_px=width_px)
+    sample = image_to_depth_m(msg)
+    if sample.shape != (rows.size, cols.size):
+        raise MessageError(
+            f"depth grid image is {sample.shape[0]}x{sample.shape[1]}, the grids asked for "
+            f"{rows.size}x{cols.size} of a {height_px}x{width_px} frame"
+        )
+    depth = np.zeros((height_px, width_px), dtype=np.float32)
+    depth[np.ix_(rows, cols)] = sample
+    return depth
 
 
 def fill_segmentation_image(
@@ -421,8 +470,10 @@ __all__ = [
     "MAX_DEPTH_16UC1_M",
     "MessageError",
     "camera_info_to_intrinsics",
+    "depth_grid_image_to_depth_m",
     "depth_to_millimetres",
     "fill_camera_info",
+    "fill_depth_grid_image",
     "fill_depth_image",
     "fill_header",
     "fill_imu",
@@ -432,6 +483,7 @@ __all__ = [
     "fill_segmentation_image",
     "fill_stamp",
     "fill_twist",
+    "grid_axes",
     "image_to_depth_m",
     "image_to_rgb",
     "image_to_segmentation",

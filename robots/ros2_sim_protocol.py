@@ -9,6 +9,7 @@ simulation has travels here, never on those:
 | ``/sim/step`` | geometry_msgs/TwistStamped, best effort | executive -> bridge | lockstep: step the world to ``header.stamp`` applying ``twist``; a step for a stamp already reached is answered with the state again (how a lost step or reply is made good) |
 | ``/sim/camera/request`` | std_msgs/String (JSON) | executive -> bridge | lockstep: render the camera now (``full``, or ``depth`` at pixel grids), or measure the flank cameras (``side``, at pixel grids), at the executive's instant (``at_ns``) |
 | ``/sim/camera/segmentation`` | sensor_msgs/Image 16UC1 (id + 1) | bridge -> executive | the segmentation of each full frame, stamped as the colour frame |
+| ``/sim/camera/depth_grid`` | sensor_msgs/Image 16UC1 (mm) | bridge -> executive | lockstep: the answer to a ``depth`` request at pixel grids, the depth of the grids' rows and columns only (robots/ros2_messages.py, ``fill_depth_grid_image``), beside the camera info |
 | ``/sim/outcome`` | std_msgs/String (JSON), transient local | executive -> bridge | the mission's declared outcome and confirmed targets, and the instant it ended at, for the bridge's scoring |
 | ``/sim/time`` | std_msgs/Float64 | bridge -> executive | the simulator's clock in float seconds (``/clock`` is its nanosecond rounding); the lockstep executive's clock, so that its time comparisons are the in-process run's to the bit |
 | ``/sim/state`` | std_msgs/Float64MultiArray (:data:`STATE_FIELDS`), best effort | bridge -> executive | lockstep: after each step, the one reply: the step's stamp, the float clock, the odometry, the IMU and the joints (the values ``/odom``, ``/sim/time``, ``/imu`` and ``/joint_states`` carry), and the twist the steps were made with and the instant they started from, so that a step costs one message and one wake-up; also the states of the steps the bridge takes ahead (``SPECULATION_DEPTH``), sent at once (the executive takes one without a wait when it asks for that step under that twist: sims/ros2_bridge.py, ``Speculation``) |
@@ -38,6 +39,9 @@ SCENE_TOPIC = "/sim/scene"
 STEP_TOPIC = "/sim/step"
 CAMERA_REQUEST_TOPIC = "/sim/camera/request"
 SEGMENTATION_TOPIC = "/sim/camera/segmentation"
+#: Lockstep renders asked at pixel grids: the depth on the grids' rows and columns only (the driver's depth
+#: topic carries whole frames).
+DEPTH_GRID_TOPIC = "/sim/camera/depth_grid"
 OUTCOME_TOPIC = "/sim/outcome"
 HEARTBEAT_TOPIC = "/sim/heartbeat"
 TIME_TOPIC = "/sim/time"
@@ -426,6 +430,7 @@ __all__ = [
     "BRIDGE_MODES",
     "FRAME_KINDS",
     "CAMERA_REQUEST_TOPIC",
+    "DEPTH_GRID_TOPIC",
     "HEARTBEAT_PERIOD_S",
     "HEARTBEAT_TOPIC",
     "OUTCOME_TOPIC",

@@ -56,6 +56,7 @@ from robots.ros2_backend import (
 from robots.ros2_messages import (
     MessageError,
     fill_camera_info,
+    fill_depth_grid_image,
     fill_depth_image,
     fill_imu,
     fill_joint_state,
@@ -69,6 +70,7 @@ from robots.ros2_messages import (
 from robots.ros2_profile import SIDE_DEPTH_STREAMS, Ros2Profile, load_ros2_profile
 from robots.ros2_sim_protocol import (
     CAMERA_REQUEST_TOPIC,
+    DEPTH_GRID_TOPIC,
     HEARTBEAT_PERIOD_S,
     HEARTBEAT_TOPIC,
     OUTCOME_TOPIC,
@@ -352,6 +354,7 @@ class SimBridge:
         self._pubs["segmentation"] = self.node.create_publisher(
             Image, SEGMENTATION_TOPIC, qos_profile(SIM_QOS)
         )
+        self._pubs["depth_grid"] = self.node.create_publisher(Image, DEPTH_GRID_TOPIC, qos_profile(SIM_QOS))
         for side in FLANK_SIDES:
             camera = self.profile.side_depth.camera(side)
             self._pubs[f"{side}_depth_image"] = self.node.create_publisher(
@@ -541,7 +544,9 @@ class SimBridge:
 
     def publish_frame(self, request: CameraRequest) -> None:
         """Render the camera now and publish camera info, depth and (full frames) colour and segmentation;
-        a ``side`` request measures the flank cameras instead."""
+        a ``side`` request measures the flank cameras instead. A depth request at pixel grids is answered
+        with the grids' rows and columns only, on ``DEPTH_GRID_TOPIC``: the executive reads no other
+        pixel, and a whole 320x240 frame costs both sides far more to fill, send and convert."""
         if request.kind == "side":
             self.publish_side_depth(request)
             return
@@ -565,8 +570,14 @@ class SimBridge:
             fill_segmentation_image(segmentation, observation.segmentation, stamp_s=stamp_s, frame_id=optical)
             self._publish("segmentation", segmentation)
         depth = self._types["depth_image"]()
-        fill_depth_image(depth, observation.depth_m, stamp_s=stamp_s, frame_id=optical)
-        self._publish("depth_image", depth)
+        if request.kind == "depth" and request.grids is not None:
+            fill_depth_grid_image(
+                depth, observation.depth_m, request.grids, stamp_s=stamp_s, frame_id=optical
+            )
+            self._publish("depth_grid", depth)
+        else:
+            fill_depth_image(depth, observation.depth_m, stamp_s=stamp_s, frame_id=optical)
+            self._publish("depth_image", depth)
         self._frames_published += 1
 
     # ------------------------------------------------------------------ world
@@ -629,15 +640,16 @@ class SimBridge:
         self._publish_streams()
         waiting, self._pending_renders = self._pending_renders, []
         for request in waiting:
-            if not self._catch_up(request.at_ns, take_waiting=False):
+            if not self._catch_up(request.at_ns, take_waiting=False, take_back=False):
                 self._pending_renders.append(request)
             else:
-                self.publish_frame(request)
+                self._publish_frame_at_asked(request)
         self._speculate(twist)
 
-    def _catch_up(self, at_ns: int | None, *, take_waiting: bool = True) -> bool:
+    def _catch_up(self, at_ns: int | None, *, take_waiting: bool = True, take_back: bool = True) -> bool:
         """Lockstep: whether the world is at the executive's instant ``at_ns`` (None: whatever it is at),
-        with the speculative steps kept up to it and the rest taken back.
+        with the speculative steps kept up to it and the rest taken back (``take_back``; else left ahead,
+        for a render of the instant asked, :meth:`_publish_frame_at_asked`).
 
         The executive takes a state sent ahead without waiting for the bridge to take its ask, so a render
         request or the outcome (other topics, which DDS does not order with ``/sim/step``) may come first.
@@ -652,8 +664,26 @@ class SimBridge:
             self._keep_first_speculation()
         if at_ns is not None and self._asked_ns < at_ns:
             return False
-        self._take_back_speculation()  # at the instant the executive has
+        if take_back:
+            self._take_back_speculation()  # at the instant the executive has
         return True
+
+    def _publish_frame_at_asked(self, request: CameraRequest) -> None:
+        """Render the instant the executive asked for last, leaving the steps ahead of it in place: the
+        cameras see the first speculative step's snapshot (``MujocoRobot.viewed_at``), and the world is
+        where it was after the render. Their states went out already and stay right (a render changes no state a step reads), so
+        the executive's next ask keeps them: taking them back and stepping them again would cost each
+        render two more steps and two more state messages."""
+        if not self._speculations:
+            self.publish_frame(request)
+            return
+        ahead = len(self._speculations)
+        self._steps -= ahead  # the bridge's clock (_now_ns): the frame's stamp
+        try:
+            with self.robot.viewed_at(self._speculations[0].robot):
+                self.publish_frame(request)
+        finally:
+            self._steps += ahead
 
     def _speculate(self, twist: Twist) -> None:
         """Take steps ahead with ``twist`` up to :data:`SPECULATION_DEPTH` and send each one's state at once
@@ -722,10 +752,10 @@ class SimBridge:
             self._take_back_speculation()
             self._errors.append(str(error))
             return
-        if not self._catch_up(request.at_ns):  # rendered when the step there comes (_on_step)
+        if not self._catch_up(request.at_ns, take_back=False):  # rendered when its step comes (_on_step)
             self._pending_renders.append(request)
             return
-        self.publish_frame(request)  # of the instant the executive has
+        self._publish_frame_at_asked(request)  # of the instant the executive has
         # Ahead again while the executive reads the frames, so that its next step needs no wait either.
         self._speculate(self._asked_twist)
 

@@ -693,6 +693,36 @@ def test_a_restored_snapshot_takes_a_step_back_to_the_bit() -> None:
     assert _kinematic_state(robot) == _kinematic_state(twin)
 
 
+def test_the_world_viewed_at_a_snapshot_is_the_snapshots_and_now_is_kept_to_the_bit() -> None:
+    # The ROS 2 bridge renders the executive's instant between the steps it took ahead of it and keeps
+    # those steps (sims/ros2_bridge.py, _publish_frame_at_asked): the frame must be the one a robot that
+    # never stepped ahead renders, and the steps ahead (their events included) must survive the render.
+    scene = make_scene(box_face_x_m=6.0, wall_x_m=2.0)
+    robot, twin = make_kinematic(scene=scene), make_kinematic(scene=scene)
+    for each in (robot, twin):
+        each.command_twist(Twist(0.8, 0.0, 0.3))
+        each.advance(1.9)
+    snapshot = robot.snapshot()
+    robot.command_twist(Twist(1.0, 0.0, 0.0))
+    robot.advance(0.6)  # ahead, into the wall: events logged
+    ahead = _kinematic_state(robot)
+    assert len(robot.safety().events) > len(twin.safety().events)
+    grids = [PixelGrid.centred(8)]
+    with robot.viewed_at(snapshot):
+        depth, full = robot.observe_depth(pixel_grids=grids), robot.observe()
+    for seen, expected in ((depth, twin.observe_depth(pixel_grids=grids)), (full, twin.observe())):
+        np.testing.assert_array_equal(seen.depth_m, expected.depth_m)
+        np.testing.assert_array_equal(seen.camera_to_world, expected.camera_to_world)
+        assert (seen.stamp_s, seen.base_pose) == (expected.stamp_s, expected.base_pose)
+    np.testing.assert_array_equal(full.rgb, twin.observe().rgb)
+    assert _kinematic_state(robot) == ahead
+    with pytest.raises(InvalidInputError, match="kinematic-only"):
+        with MujocoRobot(
+            scene=make_scene(), fidelity="dynamic", start_pose=Pose2D(0.0, 0.0, 0.0), seed=0
+        ).viewed_at(snapshot):
+            pass
+
+
 def test_snapshots_are_kinematic_only_and_not_restored_past_the_event_log() -> None:
     robot = make_kinematic(scene=make_scene(box_face_x_m=6.0, wall_x_m=2.0))
     robot.command_twist(Twist(1.0, 0.0, 0.0))

@@ -76,13 +76,15 @@ def test_a_render_asked_before_its_step_arrives_is_of_the_executives_instant(
     ]
     assert not in_order._speculations
     # The executive took the first one and then asked for a depth render at `second`, whose step ask is
-    # still on its way: the bridge keeps that speculative step, takes back the rest and renders there.
+    # still on its way: the bridge keeps that speculative step and renders there, leaving the steps
+    # ahead of it in place (their states went out already).
     request = _text(encode_camera_request(CameraRequest(kind="depth", at_ns=second)))
     kept = ahead._speculated["kept"]
     ahead._on_camera_request(request)
     print({"asked_ns": ahead._asked_ns, "frames": ahead._frame_log[-1:], "speculated": ahead._speculated})
     assert ahead._asked_ns == second and ahead._speculated["kept"] == kept + 1
     assert ahead._frame_log[-1][0] == second
+    assert ahead._speculated["taken_back"] == 0 and ahead._speculations[0].from_ns == second
     # Without a step ahead nothing reaches `second` until its ask comes: the render waits for it.
     in_order._on_camera_request(request)
     assert in_order._pending_renders and in_order._frame_log == []

@@ -29,8 +29,10 @@ from robots.mount import rotation_from_rpy
 from robots.ros2_messages import (
     MessageError,
     camera_info_to_intrinsics,
+    depth_grid_image_to_depth_m,
     depth_to_millimetres,
     fill_camera_info,
+    fill_depth_grid_image,
     fill_depth_image,
     fill_imu,
     fill_joint_state,
@@ -50,7 +52,7 @@ from robots.ros2_messages import (
     round_depth_to_millimetres,
     twist_from_msg,
 )
-from semexp_bt.core.types import CameraIntrinsics, ImuReading, Twist
+from semexp_bt.core.types import CameraIntrinsics, ImuReading, PixelGrid, Twist
 from semexp_bt.core.types import JointState as JointStateValue
 
 TYPESTORE = get_typestore(Stores.ROS2_JAZZY)
@@ -141,6 +143,34 @@ def test_depth_is_stored_to_the_nearest_millimetre_and_the_simulated_camera_roun
     assert np.array_equal(np.isnan(rounded), np.isnan(depth_m))
     measured = ~np.isnan(depth_m)
     assert np.array_equal(rounded[measured], (millimetres.astype(np.float32) * np.float32(1e-3))[measured])
+
+
+def test_a_depth_grid_image_decodes_to_the_whole_frames_depth_on_its_pixels_and_none_elsewhere() -> None:
+    """A lockstep render asked at pixel grids travels as the grids' rows and columns only
+    (``/sim/camera/depth_grid``); put back, it is what the whole frame decodes to on every pixel a grid
+    reads, and no depth (0) on the others. Two grids: the union of their rows and columns."""
+    rng = np.random.default_rng(7)
+    depth_m = rng.uniform(0.2, 12.0, size=(240, 320)).astype(np.float32)
+    depth_m[rng.random(depth_m.shape) < 0.1] = np.nan  # not measured, or no return
+    grids = (PixelGrid.centred(40), PixelGrid(stride=16, offset=3))
+    whole, sparse = Image(), Image()
+    fill_depth_image(whole, depth_m, stamp_s=1.5, frame_id="camera_color_optical_frame")
+    fill_depth_grid_image(sparse, depth_m, grids, stamp_s=1.5, frame_id="camera_color_optical_frame")
+    rows = np.union1d(grids[0].indices(240), grids[1].indices(240))
+    cols = np.union1d(grids[0].indices(320), grids[1].indices(320))
+    assert (sparse.height, sparse.width) == (rows.size, cols.size) == (21, 28)
+    assert len(sparse.data) * 40 < len(whole.data)
+    on_grid = np.zeros(depth_m.shape, dtype=bool)
+    for grid in grids:
+        on_grid |= grid.mask(height_px=240, width_px=320)
+    expected = image_to_depth_m(whole)
+    for decoded in _both_ways(sparse, "sensor_msgs/msg/Image"):
+        put_back = depth_grid_image_to_depth_m(decoded, grids, height_px=240, width_px=320)
+        assert put_back.dtype == np.float32 and put_back.shape == (240, 320)
+        np.testing.assert_array_equal(put_back[on_grid], expected[on_grid])
+        assert not put_back[~np.isin(np.arange(240), rows)[:, None] | ~np.isin(np.arange(320), cols)].any()
+    with pytest.raises(MessageError, match="grids asked for 6x8"):
+        depth_grid_image_to_depth_m(sparse, grids[:1], height_px=240, width_px=320)
 
 
 def test_big_endian_16uc1_and_32fc1_depth_decode() -> None:
