@@ -928,7 +928,8 @@ class Ros2Robot(Robot):
         msg = self._string_msg_type()
         msg.data = encode_camera_request(dataclasses.replace(request, at_ns=now))
         self._request_pub.publish(msg)
-        image = SIDE_DEPTH_STREAMS[0] if request.kind == "side" else "depth_image"  # whose deadline
+        # The wait is bounded by the camera's deadline (the grid reply has none of its own).
+        image = SIDE_DEPTH_STREAMS[0] if request.kind == "side" else "depth_image"
         deadline = max(self.profile.deadline_of(image), LOCKSTEP_REPLY_MIN_S)
 
         def arrived() -> bool:

@@ -670,10 +670,10 @@ class SimBridge:
 
     def _publish_frame_at_asked(self, request: CameraRequest) -> None:
         """Render the instant the executive asked for last, leaving the steps ahead of it in place: the
-        cameras see the first speculative step's snapshot (``MujocoRobot.viewed_at``), and the world is
-        where it was after the render. Their states went out already and stay right (a render changes no state a step reads), so
-        the executive's next ask keeps them: taking them back and stepping them again would cost each
-        render two more steps and two more state messages."""
+        cameras see the snapshot the first step ahead started from (``MujocoRobot.viewed_at``), and the
+        world is back where it was after the render. The steps' states went out already and stay right (a
+        render changes nothing a step reads), so the executive's next ask keeps them; taking them back
+        and stepping them again cost each render two more steps and two more state messages."""
         if not self._speculations:
             self.publish_frame(request)
             return
