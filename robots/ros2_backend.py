@@ -138,6 +138,8 @@ MAX_STATES_AHEAD = 8
 #: answered later than odometry's 0.5 s once (CI), which is a slow simulation, not a lost robot. 1 s keeps
 #: a dead bridge's halt within the 2 s the executive has to exit.
 LOCKSTEP_REPLY_MIN_S = 1.0
+#: The streams that come on the bridge's ``/sim/...`` topics rather than the robot profile's.
+SIMULATION_STREAM_TOPICS = {"segmentation": SEGMENTATION_TOPIC, "depth_grid": DEPTH_GRID_TOPIC}
 #: How long (s) a lockstep wait first polls for the bridge's reply before it blocks
 #: (robots/ros2_pump.py): a step's reply comes within a few hundred microseconds, sooner than the two
 #: thread wake-ups of a blocking wait. Also the bridge's poll for the executive's next request.
@@ -626,8 +628,7 @@ class Ros2Robot(Robot):
         """The topic a stream arrives on (in lockstep, odometry, IMU and joints come on ``/sim/state``)."""
         if self.lockstep and stream in ("odom", "imu", "joint_states"):
             return STATE_TOPIC
-        simulation_topics = {"segmentation": SEGMENTATION_TOPIC, "depth_grid": DEPTH_GRID_TOPIC}
-        return simulation_topics.get(stream) or self.profile.topic_of(stream)
+        return SIMULATION_STREAM_TOPICS.get(stream) or self.profile.topic_of(stream)
 
     def _missing(self) -> list[str]:
         missing = [] if not self.simulation or self._simulation_info is not None else [SCENE_TOPIC]

@@ -13,20 +13,11 @@ from __future__ import annotations
 
 import argparse
 
+from semexp_bt.bench.sweep import parse_seeds
 from sims.catalogue import build_scene, list_scenes
-from sims.occupancy import DEFAULT_RESOLUTION_M, OccupancyGrid, distance_to_mask_m, rasterise_object
-from sims.robot_footprint import ROBOT_RADIUS_M
 from sims.scenes import placement
 
 MARGINS_M = (0.05, 0.1, 0.15, 0.2, 0.25, 0.3)
-
-
-def seeds_from(text: str) -> list[int]:
-    seeds: list[int] = []
-    for part in text.split(","):
-        low, _, high = part.partition("-")
-        seeds.extend(range(int(low), int(high or low) + 1))
-    return seeds
 
 
 def main() -> None:
@@ -36,15 +27,8 @@ def main() -> None:
     placement.GOAL_APPROACH_MARGIN_M = 0.0  # the layouts the rim rule was written against
     rejected: dict[float, list[str]] = {margin: [] for margin in MARGINS_M}
     for name in list_scenes():
-        for seed in seeds_from(args.seeds):
-            scene = build_scene(name, seed=seed)
-            occupancy = OccupancyGrid.from_scene(
-                scene, resolution_m=DEFAULT_RESOLUTION_M, robot_radius_m=ROBOT_RADIUS_M
-            )
-            region = occupancy.largest_free_component()
-            to_goal_m = distance_to_mask_m(
-                rasterise_object(scene.goal, occupancy.geometry), occupancy.geometry
-            )
+        for seed in parse_seeds(args.seeds):
+            to_goal_m, region, _ = placement.goal_approach(build_scene(name, seed=seed))
             for margin in MARGINS_M:
                 if not ((to_goal_m <= placement.GOAL_SUCCESS_RADIUS_M - margin) & region).any():
                     rejected[margin].append(f"{name}/{seed}")

@@ -391,16 +391,22 @@ def _place_one(layout: _Layout, entry: dict[str, Any], name: str) -> bool:
     return False
 
 
-def _goal_reachable(scene: SceneSpec, *, min_geodesic_m: float) -> bool:
+def goal_approach(scene: SceneSpec) -> tuple[np.ndarray, np.ndarray, GridGeometry]:
+    """What the layout rule reads of a scene: every cell's distance to the goal's footprint (m), the mask of
+    the largest 8-connected free region of the inflated occupancy grid, and the grid's geometry."""
     occupancy = OccupancyGrid.from_scene(
         scene, resolution_m=DEFAULT_RESOLUTION_M, robot_radius_m=ROBOT_RADIUS_M
     )
-    region = occupancy.largest_free_component()
     to_goal_m = distance_to_mask_m(rasterise_object(scene.goal, occupancy.geometry), occupancy.geometry)
+    return to_goal_m, occupancy.largest_free_component(), occupancy.geometry
+
+
+def _goal_reachable(scene: SceneSpec, *, min_geodesic_m: float) -> bool:
+    to_goal_m, region, geometry = goal_approach(scene)
     if not ((to_goal_m <= GOAL_SUCCESS_RADIUS_M - GOAL_APPROACH_MARGIN_M) & region).any():
         return False
     goal_zone = (to_goal_m <= GOAL_SUCCESS_RADIUS_M) & region
-    return bool((distance_to_mask_m(goal_zone, occupancy.geometry)[region] >= min_geodesic_m).any())
+    return bool((distance_to_mask_m(goal_zone, geometry)[region] >= min_geodesic_m).any())
 
 
 def build_scene_from_data(name: str, *, seed: int, max_attempts: int = MAX_LAYOUT_ATTEMPTS) -> SceneSpec:
