@@ -438,7 +438,15 @@ class ConfirmTarget(SemExpBehaviour):
                 memory.scale_potential(node_id=node_id, factor=self.reject_potential_factor)
         self.feedback_message = why
         if self._label is not None:
-            self.services.log_event("confirmation_rejected", reason=why, cause=cause)
+            # Where the first vote placed the target and where the robot stood: a sweep's rows then say
+            # whether the refused object was the goal (seen badly) or a distractor, without a rerun.
+            self.services.log_event(
+                "confirmation_rejected",
+                reason=why,
+                cause=cause,
+                position_m=[round(float(v), 3) for v in self._vote_points[0]],
+                robot_xy=[round(pose.x_m, 3), round(pose.y_m, 3)],
+            )
         return py_trees.common.Status.FAILURE
 
     def update(self) -> py_trees.common.Status:

@@ -65,6 +65,10 @@ def test_too_few_votes_fail_as_soon_as_three_cannot_be_reached(make_rig: Callabl
     assert [(e["kind"], e["cause"]) for e in rig.services.events] == [
         ("confirmation_rejected", "too_few_views")
     ]
+    (refusal,) = rig.services.events
+    # The refusal says where the first vote put the target (its front surface) and where the robot stood.
+    assert refusal["position_m"][0] == pytest.approx(0.6, abs=0.1)
+    assert refusal["robot_xy"] == pytest.approx([0.0, 0.0], abs=0.05)
 
 
 def test_a_first_view_that_does_not_vote_fails_at_once_and_lowers_the_node_in_view(
