@@ -198,7 +198,14 @@ def test_flatten_drops_candidate_lists_but_keeps_the_ids_gnsa_needs() -> None:
 def test_flatten_counts_refused_confirmations_by_cause() -> None:
     record = fake_record(spec(trajectories_per_cell=0).tasks()[0])
     record["events"] = [
-        {"kind": "confirmation_rejected", "reason": "only 1 of 3 ...", "cause": "too_few_views"},
+        {
+            "kind": "confirmation_rejected",
+            "reason": "only 1 of 3 ...",
+            "cause": "too_few_views",
+            "stamp_s": 12.5,
+            "position_m": [1.0, 2.0, 0.3],
+            "robot_xy": [0.4, 2.1],
+        },
         {"kind": "confirmation_rejected", "reason": "only 0 of 2 ...", "cause": "too_few_views"},
         {"kind": "confirmation_rejected", "reason": "... names heard ...", "cause": "label_agreement"},
         {"kind": "confirmation_rejected", "reason": "a record from before causes"},
@@ -208,6 +215,16 @@ def test_flatten_counts_refused_confirmations_by_cause() -> None:
     print(row["event_counts"], row["refusal_causes"])
     assert row["event_counts"] == {"confirmation_rejected": 4, "target_sighted": 1}
     assert row["refusal_causes"] == {"too_few_views": 2, "label_agreement": 1, "unknown": 1}
+    # Each refusal is listed with what it holds of where the vote and the robot were.
+    assert len(row["refusals"]) == 4
+    assert row["refusals"][0] == {
+        "stamp_s": 12.5,
+        "cause": "too_few_views",
+        "reason": "only 1 of 3 ...",
+        "position_m": [1.0, 2.0, 0.3],
+        "robot_xy": [0.4, 2.1],
+    }
+    assert row["refusals"][3] == {"reason": "a record from before causes"}
 
 
 def test_to_episode_record_keeps_the_distance_and_the_gnsa_steps() -> None:

@@ -4,7 +4,8 @@ One row per episode, flat-ish: the runner's record without the per-decision cand
 per-event entries and the bulky snapshots (decisions keep ``selected_node_id`` and ``oracle_node_id``,
 which is what GNSA needs; events are counted; found objects keep their labels), plus ``key``,
 ``config_hash``, ``relevance``, ``status`` (``ok``, ``error``, ``timeout``), ``error`` and
-``harness_wall_s``; ``refusal_causes`` counts the refused confirmations by cause.
+``harness_wall_s``; ``refusal_causes`` counts the refused confirmations by cause and ``refusals`` lists
+them (:data:`REFUSAL_KEYS`).
 :func:`to_episode_record` is the one conversion from a row (or a record) to the metrics'
 :class:`~semexp_bt.core.metrics.EpisodeRecord`. Where rows are stored: ``bench.store``.
 """
@@ -25,6 +26,9 @@ STATUS_TIMEOUT = "timeout"
 #: The event a refused confirmation leaves in an episode record (``ConfirmTarget``); rows count them by
 #: the event's ``cause`` under ``refusal_causes`` (rows written before session 27 lack it).
 CONFIRMATION_REJECTED = "confirmation_rejected"
+#: What a row keeps of each refused confirmation, under ``refusals``: enough to tell, against the scene's
+#: ground truth, a refused goal from a refused distractor (``position_m`` and ``robot_xy`` since session 33).
+REFUSAL_KEYS = ("stamp_s", "cause", "reason", "position_m", "robot_xy")
 #: Record keys dropped from rows (bulky; the trajectory file keeps what plots need).
 _DROPPED_KEYS = ("trajectory_xy", "memory_snapshot", "events", "decisions", "found_objects")
 #: Record keys a row carries to the parent under ``EXTRAS_KEY`` for the trajectory file, not the row.
@@ -48,14 +52,17 @@ def flatten_record(record: Mapping[str, Any]) -> dict[str, Any]:
     ]
     counts: dict[str, int] = {}
     causes: dict[str, int] = {}
+    refusals: list[dict[str, Any]] = []
     for event in record.get("events", ()):
         kind = str(event.get("kind", "?"))
         counts[kind] = counts.get(kind, 0) + 1
         if kind == CONFIRMATION_REJECTED:
             cause = str(event.get("cause") or "unknown")
             causes[cause] = causes.get(cause, 0) + 1
+            refusals.append({key: event[key] for key in REFUSAL_KEYS if key in event})
     row["event_counts"] = counts
     row["refusal_causes"] = causes
+    row["refusals"] = refusals
     row["found_labels"] = [f.get("label") for f in record.get("found_objects", ())]
     return row
 
