@@ -14,9 +14,11 @@ from semexp_bt.core.instruction import instruction_target
 from semexp_bt.core.language import canonical_tokens, singularise
 from semexp_bt.core.relevance import (
     ATTRIBUTE_CONFLICT_FACTOR,
+    NAMES_OBJECT_RELEVANCE,
     CachedRelevance,
     LexicalRelevance,
     RelevanceScorer,
+    narrows,
 )
 from semexp_bt.core.types import InvalidInputError
 
@@ -105,6 +107,26 @@ def test_lexical_hand_worked_scores() -> None:
     assert s("find the loading cart", "trolley") == 1.0  # "loading cart" is a lexicon name of a cart
     assert s("find the robot dog", "quadruped robot") == 1.0
     assert s("find the chair", "") == 0.0
+
+
+@pytest.mark.parametrize(
+    ("target", "label", "names_it"),
+    [
+        ("black chair", "black office chair", True),  # the laboratory's own alias of its black chair
+        ("black chair", "office chair", True),  # no colour said: neither agrees nor conflicts
+        ("black chair", "grey office chair", False),  # a conflicting colour never narrows
+        ("bucket shelf", "shelf", False),  # broader, not narrower: a shelf need not be a bucket shelf
+        ("robot dog", "toy robot dog", False),  # a toy is no robot dog
+        ("quadruped robot", "toy robot dog", False),  # the showroom's distractor, through the lexicon
+        ("traffic sign", "model road sign", False),
+        ("cart", "loading cart", True),
+    ],
+)
+def test_a_narrower_name_names_the_object_and_a_toy_does_not(target: str, label: str, names_it: bool) -> None:
+    score = LEXICAL.score(instruction=f"find the {target}", label=label)
+    print(f"{target!r} <- {label!r}: narrows {narrows(target, label)}, score {score:.3f}")
+    assert narrows(target, label) is names_it
+    assert (score >= NAMES_OBJECT_RELEVANCE) is names_it
 
 
 def test_lexical_colour_matters() -> None:

@@ -133,6 +133,15 @@ EXTRA_OBJECT_WORDS: frozenset[str] = frozenset(
      "station", "shelter", "robot", "dog", "truck", "trolley", "legged", "four"}
 )  # fmt: skip
 
+#: Modifiers that make a phrase name something that is not its head noun's kind: a toy robot dog is no
+#: robot dog, a model car no car (linguistics calls them non-subsective, or privative, adjectives). Any
+#: other modifier only narrows the kind: a black office chair is a black chair.
+NON_SUBSECTIVE_MODIFIERS: frozenset[str] = frozenset(
+    {"toy", "model", "replica", "miniature", "fake", "imitation", "artificial", "dummy", "decoy", "mock",
+     "counterfeit", "stuffed", "plush", "inflatable", "cutout", "statue", "figurine", "sculpture",
+     "picture", "photo", "poster", "painting", "drawing", "sticker", "cartoon", "former"}
+)  # fmt: skip
+
 #: Plurals that the suffix rules of :func:`singularise` would get wrong.
 IRREGULAR_SINGULARS: dict[str, str] = {
     "shelves": "shelf",

@@ -27,7 +27,7 @@ import numpy as np
 import numpy.typing as npt
 
 from semexp_bt.core.instruction import instruction_target
-from semexp_bt.core.language import attribute_words, canonical_tokens, words_of
+from semexp_bt.core.language import NON_SUBSECTIVE_MODIFIERS, attribute_words, canonical_tokens, words_of
 from semexp_bt.core.types import InvalidInputError
 
 FloatArray = npt.NDArray[np.float64]
@@ -92,7 +92,10 @@ class LexicalRelevance:
     times :data:`ATTRIBUTE_CONFLICT_FACTOR` when both phrases name a colour (or a size) and none in
     common. It is 1 exactly when both phrases reduce to the same tokens and head, 0 when they share no
     token. Names are read with the lexicon of :mod:`semexp_bt.core.language` ("road sign" and "traffic
-    sign" are one concept).
+    sign" are one concept). A label that :func:`narrows` the instruction's object (a kind of it: "black
+    office chair" for "the black chair") scores at least :data:`NAMES_OBJECT_RELEVANCE`: it names it,
+    where the overlap alone (0.86) would call it only related and count a VLM's own alias against the
+    object it names (docs/decision.md, "A narrower name names the object").
     """
 
     def score(self, *, instruction: str, label: str) -> float:
@@ -100,7 +103,16 @@ class LexicalRelevance:
 
     def scores(self, *, instruction: str, labels: Sequence[str]) -> FloatArray:
         target = instruction_target(instruction)
-        return np.array([phrase_similarity(target, label) for label in labels], dtype=float)
+        return np.array(
+            [
+                max(
+                    phrase_similarity(target, label),
+                    NAMES_OBJECT_RELEVANCE if narrows(target, label) else 0.0,
+                )
+                for label in labels
+            ],
+            dtype=float,
+        )
 
 
 def _without_unmatched_attributes(
@@ -143,6 +155,25 @@ def phrase_similarity(a: str, b: str) -> float:
     if attributes_conflict(a, b):
         value *= ATTRIBUTE_CONFLICT_FACTOR
     return float(min(max(value, 0.0), 1.0))
+
+
+def narrows(target: str, label: str) -> bool:
+    """Whether ``label`` is ``target`` with more modifiers, none of them non-subsective, and the same head:
+    such a label names a kind of the target, so it names the target.
+
+    One way only: "black office chair" narrows "black chair" (a black office chair is a black chair), but
+    "shelf" does not narrow "bucket shelf" (a shelf need not be a bucket shelf), and "toy robot dog" does
+    not narrow "robot dog" (a toy is no robot dog: "toy" is in
+    :data:`~semexp_bt.core.language.NON_SUBSECTIVE_MODIFIERS`). Attributes that only the label states are
+    left out first, as :func:`phrase_similarity` does, and conflicting ones never narrow.
+    """
+    tokens_t, head_t = canonical_tokens(target)
+    tokens_l, head_l = canonical_tokens(label)
+    if head_t is None or head_t != head_l or attributes_conflict(target, label):
+        return False
+    tokens_t, tokens_l = _without_unmatched_attributes(tokens_t, tokens_l, head_t, head_l)
+    extra = set(tokens_l) - set(tokens_t)
+    return set(tokens_t) <= set(tokens_l) and not extra & NON_SUBSECTIVE_MODIFIERS
 
 
 class HybridRelevance:
