@@ -89,7 +89,7 @@ object itself (the VLM's "shelf" for the detector's "bucket shelf") still lies o
 Example:
     - type: ConfirmTarget
       name: Confirm
-      params: {confirm_radius_m: 1.0, extra_views: 3, max_extra_views: 4}
+      params: {confirm_radius_m: 1.0, extra_views: 3, max_extra_views: 8}
 """
 
 from __future__ import annotations
@@ -194,8 +194,9 @@ class ConfirmTarget(SemExpBehaviour):
     )
     max_extra_views: int = param(
         "int",
-        doc="most further views taken to collect ``extra_views`` votes (at least ``extra_views``)",
-        default=4,
+        doc="most further views taken to collect ``extra_views`` votes (at least ``extra_views``; 8 since "
+        "session 33: from close by a real goal votes in about a third of the views, docs/executive.md)",
+        default=8,
         ge=0,
         le=20,
     )
