@@ -3,10 +3,10 @@
 - Seed 0 of each scene (a list fixed before outcomes, ``slow`` marker): the mission declares success next
   to the goal object (within r_s of its footprint) and what it reached is of the instructed category.
 - With the goal hidden (sunk under the floor, so no camera can see it), the robot explores among the
-  distractors and never declares success: calibrated arbitration, the 3-of-4 confirmation vote and the
+  distractors and never declares success: calibrated arbitration, the 3-of-8 confirmation vote and the
   label majority at the spot do not accept a red trash can for an extinguisher, a grey chair for a black
   chair, a toy robot dog for a quadruped robot, a plain shelf for a bucket shelf (living_room seed 1 is
-  the episode where 3 of 4 votes alone confirmed that shelf).
+  the episode where 3 of 4 votes alone confirmed that shelf, before the label majority).
 
 The solved episodes use the protocol's embedding relevance scorer, loaded once per test process (about
 15 s); the distractor episodes use the lexical one. The all-scene sweep is a benchmark command, not a
