@@ -454,15 +454,16 @@ def tick_until_done(tree, robot, *, limit_s: float = 30.0) -> None:  # type: ign
         ((True, True, True), py_trees.common.Status.SUCCESS, 3),
         ((False, True, True, True), py_trees.common.Status.SUCCESS, 4),
         ((True, True, False, True), py_trees.common.Status.SUCCESS, 4),
-        ((False, False), py_trees.common.Status.FAILURE, 2),
-        ((True, True, False, False), py_trees.common.Status.FAILURE, 4),
+        ((False,) * 5 + (True,) * 3, py_trees.common.Status.SUCCESS, 8),
+        ((False,) * 6, py_trees.common.Status.FAILURE, 6),
+        ((True, True) + (False,) * 6, py_trees.common.Status.FAILURE, 8),
     ],
 )
-def test_confirmation_is_three_votes_out_of_at_most_four_further_views(
+def test_confirmation_is_three_votes_out_of_at_most_eight_further_views(
     tmp_path: Path, extra_view_votes: tuple[bool, ...], outcome: py_trees.common.Status, views_taken: int
 ) -> None:
     """The target 0.8 m ahead; each further view either sees it or sees nothing. ConfirmTarget succeeds as
-    soon as three further views vote, and fails as soon as three votes can no longer be reached in four."""
+    soon as three further views vote, and fails as soon as three votes can no longer be reached in eight."""
     target = Post(1, 0.8, 0.0, vlm_label="fire extinguisher", detector_label="fire extinguisher")
     sees, blind = seeing([target], directions=False), seeing([], directions=False)
     script = [sees] + [sees if vote else blind for vote in extra_view_votes]
