@@ -312,6 +312,8 @@ class ConfirmTarget(SemExpBehaviour):
         #: declare on votes from afar.
         self._from_afar = False
         self._declaring = False
+        #: How far from the robot the first vote lay, m (the refusal and confirmation events say it).
+        self._first_vote_m = 0.0
         #: Whether it is still turning or stepping up, and since when (robot clock); whether it backs away.
         self._stepping = False
         self._backing = False
@@ -447,6 +449,7 @@ class ConfirmTarget(SemExpBehaviour):
                 cause=cause,
                 position_m=[round(float(v), 3) for v in self._vote_points[0]],
                 robot_xy=[round(pose.x_m, 3), round(pose.y_m, 3)],
+                first_vote_m=self._first_vote_m,
             )
         return py_trees.common.Status.FAILURE
 
@@ -457,6 +460,7 @@ class ConfirmTarget(SemExpBehaviour):
                 return self._reject("no confirmable target here")
             self._label, first_point, self._first_boxed = vote
             self._vote_points, self._boxed = [first_point], self._first_boxed
+            self._first_vote_m = round(self._distance_to(first_point), 2)
             self._from_afar = self.view_from_m > 0.0
             self._start_moving()
         if self._votes >= self.extra_views and self._from_afar:
@@ -633,7 +637,12 @@ class ConfirmTarget(SemExpBehaviour):
             }
         )
         self.write("found_objects", found)
-        self.services.log_event("target_confirmed", label=label, position_m=found[-1]["position_m"])
+        self.services.log_event(
+            "target_confirmed",
+            label=label,
+            position_m=found[-1]["position_m"],
+            first_vote_m=self._first_vote_m,
+        )
         self.feedback_message = f"confirmed {label!r} at {found[-1]['position_m']}"
         return py_trees.common.Status.SUCCESS
 

@@ -205,15 +205,23 @@ def test_flatten_counts_refused_confirmations_by_cause() -> None:
             "stamp_s": 12.5,
             "position_m": [1.0, 2.0, 0.3],
             "robot_xy": [0.4, 2.1],
+            "first_vote_m": 1.9,
         },
         {"kind": "confirmation_rejected", "reason": "only 0 of 2 ...", "cause": "too_few_views"},
         {"kind": "confirmation_rejected", "reason": "... names heard ...", "cause": "label_agreement"},
         {"kind": "confirmation_rejected", "reason": "a record from before causes"},
         {"kind": "target_sighted"},
+        {
+            "kind": "target_confirmed",
+            "label": "bin",
+            "stamp_s": 40.0,
+            "position_m": [3.0, 0.1, 0.3],
+            "first_vote_m": 2.2,
+        },
     ]
     row = flatten_record(record)
-    print(row["event_counts"], row["refusal_causes"])
-    assert row["event_counts"] == {"confirmation_rejected": 4, "target_sighted": 1}
+    print(row["event_counts"], row["refusal_causes"], row["confirmations"])
+    assert row["event_counts"] == {"confirmation_rejected": 4, "target_sighted": 1, "target_confirmed": 1}
     assert row["refusal_causes"] == {"too_few_views": 2, "label_agreement": 1, "unknown": 1}
     # Each refusal is listed with what it holds of where the vote and the robot were.
     assert len(row["refusals"]) == 4
@@ -223,8 +231,11 @@ def test_flatten_counts_refused_confirmations_by_cause() -> None:
         "reason": "only 1 of 3 ...",
         "position_m": [1.0, 2.0, 0.3],
         "robot_xy": [0.4, 2.1],
+        "first_vote_m": 1.9,
     }
     assert row["refusals"][3] == {"reason": "a record from before causes"}
+    # A declared confirmation is listed with how far away its first vote lay.
+    assert row["confirmations"] == [{"stamp_s": 40.0, "position_m": [3.0, 0.1, 0.3], "first_vote_m": 2.2}]
 
 
 def test_to_episode_record_keeps_the_distance_and_the_gnsa_steps() -> None:

@@ -5,7 +5,7 @@ per-event entries and the bulky snapshots (decisions keep ``selected_node_id`` a
 which is what GNSA needs; events are counted; found objects keep their labels), plus ``key``,
 ``config_hash``, ``relevance``, ``status`` (``ok``, ``error``, ``timeout``), ``error`` and
 ``harness_wall_s``; ``refusal_causes`` counts the refused confirmations by cause and ``refusals`` lists
-them (:data:`REFUSAL_KEYS`).
+them (:data:`REFUSAL_KEYS`); ``confirmations`` lists the declared ones (:data:`CONFIRMATION_KEYS`).
 :func:`to_episode_record` is the one conversion from a row (or a record) to the metrics'
 :class:`~semexp_bt.core.metrics.EpisodeRecord`. Where rows are stored: ``bench.store``.
 """
@@ -28,7 +28,11 @@ STATUS_TIMEOUT = "timeout"
 CONFIRMATION_REJECTED = "confirmation_rejected"
 #: What a row keeps of each refused confirmation, under ``refusals``: enough to tell, against the scene's
 #: ground truth, a refused goal from a refused distractor (``position_m`` and ``robot_xy`` since session 33).
-REFUSAL_KEYS = ("stamp_s", "cause", "reason", "position_m", "robot_xy")
+REFUSAL_KEYS = ("stamp_s", "cause", "reason", "position_m", "robot_xy", "first_vote_m")
+#: The event a declared confirmation leaves, and what a row keeps of each under ``confirmations``
+#: (``first_vote_m``, how far away the first vote lay, since session 34).
+TARGET_CONFIRMED = "target_confirmed"
+CONFIRMATION_KEYS = ("stamp_s", "position_m", "first_vote_m")
 #: Record keys dropped from rows (bulky; the trajectory file keeps what plots need).
 _DROPPED_KEYS = ("trajectory_xy", "memory_snapshot", "events", "decisions", "found_objects")
 #: Record keys a row carries to the parent under ``EXTRAS_KEY`` for the trajectory file, not the row.
@@ -53,6 +57,7 @@ def flatten_record(record: Mapping[str, Any]) -> dict[str, Any]:
     counts: dict[str, int] = {}
     causes: dict[str, int] = {}
     refusals: list[dict[str, Any]] = []
+    confirmations: list[dict[str, Any]] = []
     for event in record.get("events", ()):
         kind = str(event.get("kind", "?"))
         counts[kind] = counts.get(kind, 0) + 1
@@ -60,9 +65,12 @@ def flatten_record(record: Mapping[str, Any]) -> dict[str, Any]:
             cause = str(event.get("cause") or "unknown")
             causes[cause] = causes.get(cause, 0) + 1
             refusals.append({key: event[key] for key in REFUSAL_KEYS if key in event})
+        elif kind == TARGET_CONFIRMED:
+            confirmations.append({key: event[key] for key in CONFIRMATION_KEYS if key in event})
     row["event_counts"] = counts
     row["refusal_causes"] = causes
     row["refusals"] = refusals
+    row["confirmations"] = confirmations
     row["found_labels"] = [f.get("label") for f in record.get("found_objects", ())]
     return row
 

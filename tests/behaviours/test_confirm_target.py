@@ -51,7 +51,9 @@ def test_three_further_votes_confirm_the_target(make_rig: Callable[..., Rig]) ->
     assert found["label"] == "fire extinguisher" and found["instruction"] == INSTRUCTION
     assert found["position_m"][0] == pytest.approx(0.6, abs=0.1)
     assert rig.written_by(confirm) == ["found_objects"]
-    assert [e["kind"] for e in rig.services.events] == ["target_confirmed"]
+    (event,) = rig.services.events
+    # The confirmation says how far away its first vote lay (the target's front surface, 0.6 m).
+    assert event["kind"] == "target_confirmed" and event["first_vote_m"] == pytest.approx(0.6, abs=0.1)
 
 
 def test_too_few_votes_fail_as_soon_as_three_cannot_be_reached(make_rig: Callable[..., Rig]) -> None:
@@ -69,6 +71,7 @@ def test_too_few_votes_fail_as_soon_as_three_cannot_be_reached(make_rig: Callabl
     # The refusal says where the first vote put the target (its front surface) and where the robot stood.
     assert refusal["position_m"][0] == pytest.approx(0.6, abs=0.1)
     assert refusal["robot_xy"] == pytest.approx([0.0, 0.0], abs=0.05)
+    assert refusal["first_vote_m"] == pytest.approx(0.6, abs=0.1)
 
 
 def test_a_target_that_votes_in_every_other_view_is_confirmed_within_the_default_eight(
