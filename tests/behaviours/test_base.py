@@ -83,6 +83,35 @@ def test_every_product_parameter_has_a_default_that_its_spec_accepts() -> None:
     assert checked == 84
 
 
+def test_read_takes_a_declared_key_from_its_remapped_entry_and_refuses_an_undeclared_one(rig: Rig) -> None:
+    class ReadsTheDecision(SemExpBehaviour):
+        READS = ("decision", "instruction")
+
+        def update(self) -> py_trees.common.Status:
+            return py_trees.common.Status.SUCCESS
+
+    reader = ReadsTheDecision(name="Reader", context=rig.context, remap={"instruction": "target_label"})
+    assert not rig.board.exists("decision")
+    assert reader.read("decision") is None and reader.read("decision", default="none") == "none"
+    rig.set("instruction", "find the chair")
+    rig.set("target_label", "chair")
+    board = py_trees.blackboard.Blackboard
+    enabled_here = board.activity_stream is None
+    if enabled_here:
+        board.enable_activity_stream()
+    try:
+        assert reader.read("instruction") == "chair"  # remapped: its entry is target_label
+        stream = board.activity_stream
+        assert stream is not None
+        # No READ items for the record to skip (it keeps writes only).
+        assert [item.key for item in stream.data if item.client_name == "Reader"] == []
+    finally:
+        if enabled_here:
+            board.disable_activity_stream()
+    with pytest.raises(AttributeError, match="does not have read/write access to '/memory'"):
+        reader.read("memory")
+
+
 def test_a_required_parameter_must_be_given(rig: Rig) -> None:
     class Needs(SemExpBehaviour):
         gain: float = param("float", doc="a gain", gt=0.0)
