@@ -64,15 +64,20 @@ def flatten_record(record: Mapping[str, Any]) -> dict[str, Any]:
         if kind == CONFIRMATION_REJECTED:
             cause = str(event.get("cause") or "unknown")
             causes[cause] = causes.get(cause, 0) + 1
-            refusals.append({key: event[key] for key in REFUSAL_KEYS if key in event})
+            refusals.append(_picked(event, REFUSAL_KEYS))
         elif kind == TARGET_CONFIRMED:
-            confirmations.append({key: event[key] for key in CONFIRMATION_KEYS if key in event})
+            confirmations.append(_picked(event, CONFIRMATION_KEYS))
     row["event_counts"] = counts
     row["refusal_causes"] = causes
     row["refusals"] = refusals
     row["confirmations"] = confirmations
     row["found_labels"] = [f.get("label") for f in record.get("found_objects", ())]
     return row
+
+
+def _picked(event: Mapping[str, Any], keys: tuple[str, ...]) -> dict[str, Any]:
+    """The entries of ``event`` under ``keys`` that it has (older records lack the later keys)."""
+    return {key: event[key] for key in keys if key in event}
 
 
 def finished_row(record: Mapping[str, Any]) -> dict[str, Any]:

@@ -95,19 +95,11 @@ def test_read_takes_a_declared_key_from_its_remapped_entry_and_refuses_an_undecl
     assert reader.read("decision") is None and reader.read("decision", default="none") == "none"
     rig.set("instruction", "find the chair")
     rig.set("target_label", "chair")
-    board = py_trees.blackboard.Blackboard
-    enabled_here = board.activity_stream is None
-    if enabled_here:
-        board.enable_activity_stream()
-    try:
-        assert reader.read("instruction") == "chair"  # remapped: its entry is target_label
-        stream = board.activity_stream
-        assert stream is not None
-        # No READ items for the record to skip (it keeps writes only).
-        assert [item.key for item in stream.data if item.client_name == "Reader"] == []
-    finally:
-        if enabled_here:
-            board.disable_activity_stream()
+    assert reader.read("instruction") == "chair"  # remapped: its entry is target_label
+    # The rig listens to the activity stream as a recorder does: no READ items for the record to skip.
+    stream = py_trees.blackboard.Blackboard.activity_stream
+    assert stream is not None
+    assert [item.key for item in stream.data if item.client_name == "Reader"] == []
     with pytest.raises(AttributeError, match="does not have read/write access to '/memory'"):
         reader.read("memory")
 
