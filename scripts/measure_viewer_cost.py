@@ -55,6 +55,13 @@ def _children_cpu_s() -> float:
 
 def one_run(config: str, sim_s: float, workdir: Path) -> dict[str, float]:
     """Run the mission once in this process; the figures as a dict (called in a child process)."""
+    world_process = None
+    if config in ("view", "live_only", "live", "stalled"):
+        # As ``semexp-bt run`` does: the view's world process is spawned before the mission stack is
+        # imported, so that Rerun's import in it overlaps those imports.
+        from semexp_bt.app.viewer.world_process import WorldProcess
+
+        world_process = WorldProcess.spawn()
     import torch
 
     torch.set_num_threads(1)
@@ -116,6 +123,7 @@ def one_run(config: str, sim_s: float, workdir: Path) -> dict[str, float]:
             record_dir=None if config == "live_only" else workdir / "view",
             announce=stall if config == "stalled" else None,
             after_mission=hold,
+            world_process=world_process,
         )
     options = EpisodeOptions(
         mission_path=ROOT / "trees" / "object_search.yaml",

@@ -8,9 +8,8 @@ server are named) from ``/proc``. It prints, for each part, the least CPU time o
 parts nest (``record_tick`` holds ``node_entries`` ...); each counter costs about a microsecond a call,
 so the small parts called every tick read high. The view's start and end (:data:`WALL_PARTS`) are
 counted in wall time, in the same unit: the mission waits for them whole, CPU or not. Rerun's logging
-of a saved view runs in its world process (``semexp_bt/app/viewer/world_process.py``), a child whose CPU
-this profile does not split into parts (``scripts/measure_viewer_cost.py`` counts it whole); the live
-view logs in this process, part by part.
+runs in the view's world process (``semexp_bt/app/viewer/world_process.py``), a child whose CPU this
+profile does not split into parts (``scripts/measure_viewer_cost.py`` counts it whole).
 
 Usage:
     MUJOCO_GL=egl .venv/bin/python scripts/profile_viewer_parts.py --config view --repeats 3 --sim-s 120
@@ -54,27 +53,17 @@ PARTS = (
         "record: hand-over to feed and file",
     ),
     ("semexp_bt.app.viewer.observer", "ViewObserver", "after_tick", "capture: all of it"),
-    ("semexp_bt.app.viewer.frames", "", "map_layer", "capture: the map's copy"),
+    ("semexp_bt.app.viewer.capture", "", "map_layer", "capture: the map's copy"),
     ("semexp_bt.app.viewer.observer", "ViewObserver", "_work", "worker: all of it"),
-    ("semexp_bt.app.viewer.world", "WorldLogger", "flush", "worker (live): pose-rate columns"),
-    ("semexp_bt.app.viewer.world", "WorldLogger", "_log_observation", "worker (live): camera RGB and depth"),
-    ("semexp_bt.app.viewer.world", "WorldLogger", "_log_map", "worker (live): map and path"),
-    ("semexp_bt.app.viewer.world", "WorldLogger", "_log_memory", "worker (live): memory and graph"),
     (
         "semexp_bt.app.viewer.world_process",
         "WorldProcess",
         "flush",
-        "worker (saved): batches to the world process",
+        "worker: batches to the world process",
     ),
     ("semexp_bt.app.viewer.recording", "RecordingWriter", "flush", "worker: ticks.jsonl"),
-    (
-        "semexp_bt.app.viewer.observer",
-        "",
-        "_import_rerun",
-        "setup (live): import Rerun (a thread, from the start)",
-    ),
     ("semexp_bt.app.viewer.observer", "ViewObserver", "_default_sink", "setup: open Rerun's logger"),
-    ("semexp_bt.app.viewer.world_process", "WorldProcess", "spawn", "setup (saved): spawn the world process"),
+    ("semexp_bt.app.viewer.world_process", "WorldProcess", "spawn", "setup: spawn the world process"),
 )
 #: ``(module, class, function, label)``: parts counted in wall time, not CPU time: the mission waits for
 #: them whole, and what they wait for (an import on another thread, the worker's last batch, the page

@@ -34,7 +34,7 @@ from semexp_bt.core.config import SemExpConfig
 from semexp_bt.core.memory import TopologicalMemory
 from semexp_bt.core.relevance import CachedRelevance, LexicalRelevance
 from semexp_bt.core.types import Detection, Observation, Pose2D, SceneEvidence, SceneProposal, Twist
-from semexp_bt.nav.controller import ControlResult
+from semexp_bt.nav.control_result import ControlResult
 from semexp_bt.nav.pure_pursuit import RegulatedPurePursuit
 from semexp_bt.perception.interface import PerceptionResult
 from sims.scripted_perception import ScriptedPerception

@@ -113,10 +113,12 @@ def run(args: argparse.Namespace) -> int:
     if args.backend in SIMULATED_BACKENDS and args.scene is None:
         print_error(f"--scene is required with --backend {args.backend}")
         return 2
+    # The view's world process first: its Rerun import then overlaps the imports of the mission stack.
+    view = _view_options(args)
     if args.backend == "ros2":
-        return _run_ros2(args)
+        return _run_ros2(args, view)
     try:
-        record = _run(args)
+        record = _run(args, view)
     except MissionLoadError as exc:  # the mission file (missing, not YAML, invalid): one line per problem
         for error in exc.errors:
             print(error, file=sys.stderr)
@@ -136,7 +138,7 @@ def run(args: argparse.Namespace) -> int:
     return _report(record)
 
 
-def _run_ros2(args: argparse.Namespace) -> int:
+def _run_ros2(args: argparse.Namespace, view: Any) -> int:
     """The mission over ROS 2: the executive's record, a one-line summary, the exit status."""
     import signal
     from types import FrameType
@@ -166,7 +168,7 @@ def _run_ros2(args: argparse.Namespace) -> int:
                 config_overrides=None if args.config is None else read_config_file(args.config),
                 display=args.display,
                 record_path=args.record,
-                view=_view_options(args),
+                view=view,
             )
         )
     except (ValueError, RuntimeError) as exc:  # a bad mission, config or profile; no rclpy, no robot;
@@ -199,7 +201,7 @@ def _run_ros2(args: argparse.Namespace) -> int:
     return 1
 
 
-def _run(args: argparse.Namespace) -> dict[str, Any]:
+def _run(args: argparse.Namespace, view: Any) -> dict[str, Any]:
     from semexp_bt.app.configuration import read_config_file
     from semexp_bt.app.episode import EpisodeOptions, run_episode
     from sims.faults import load_faults_file
@@ -220,7 +222,7 @@ def _run(args: argparse.Namespace) -> dict[str, Any]:
             display=args.display,
             record_path=args.record,
             faults=None if args.faults is None else load_faults_file(args.faults),
-            view=_view_options(args),
+            view=view,
         )
     )
 
@@ -229,6 +231,13 @@ def _view_options(args: argparse.Namespace) -> Any:
     """The view's options from ``--view`` / ``--view-record``, or None when neither is given."""
     if not args.view and args.view_record is None:
         return None
+    import importlib.util
+
+    from semexp_bt.app.viewer.world_process import WorldProcess
+
+    # Spawned before anything heavy is imported (this module imports only the mission stack's light
+    # parts): without the viewer extra there is nothing to spawn, and the observer says so.
+    world_process = WorldProcess.spawn() if importlib.util.find_spec("rerun") is not None else None
     from semexp_bt.app.viewer.observer import ViewOptions
 
     def announce(url: str) -> None:
@@ -258,6 +267,7 @@ def _view_options(args: argparse.Namespace) -> Any:
             "mission": str(args.mission),
         },
         announce=announce,
+        world_process=world_process,
         after_mission=keep_open,
     )
 

@@ -37,13 +37,14 @@ same safety rules, stated and checked here:
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
-from typing import Literal, Protocol, runtime_checkable
+from dataclasses import dataclass
+from typing import Protocol, runtime_checkable
 
 import numpy as np
 import numpy.typing as npt
 
 from semexp_bt.core.types import FloatArray, Pose2D, Twist
+from semexp_bt.nav.control_result import ControlResult
 from semexp_bt.nav.costmap import Costmap
 from semexp_bt.nav.footprint import transform_points
 from semexp_bt.nav.global_planner import GlobalPlan
@@ -54,10 +55,6 @@ DISC_OVERSHOOT_BOUND_M = 0.04
 #: Below this disc clearance (m) the exact outline clearance is computed: the slow-down band
 #: (``SafetyRules.slow_clearance_m``, 0.45 m) plus the overshoot bound.
 EXACT_CLEARANCE_BELOW_M = 0.49
-
-ControlStatus = Literal["tracking", "rotating", "blocked", "arrived"]
-"""``tracking`` the path; ``rotating`` in place toward it; ``blocked``: no admissible motion (zero
-twist); ``arrived`` at the path's end (zero twist)."""
 
 
 @dataclass(frozen=True)
@@ -87,27 +84,6 @@ class SafetyRules:
     """Refuse motions whose footprint outline leaves the forward corridor over never-observed cells."""
     outline_spacing_m: float = 0.1
     """Spacing of the outline points that rule checks (two cells)."""
-
-
-@dataclass
-class ControlResult:
-    """One controller cycle.
-
-    Attributes:
-        twist: the command.
-        status: see :data:`ControlStatus`.
-        clearance_m: the least footprint clearance along the commanded trajectory (inf when far from all).
-        trajectory: ``(T, 3)`` the commanded trajectory's states (x, y, yaw), for display.
-        scores: the chosen trajectory's critic terms.
-        candidates: how many trajectories were sampled, and how many were admissible.
-    """
-
-    twist: Twist
-    status: ControlStatus
-    clearance_m: float = math.inf
-    trajectory: FloatArray = field(default_factory=lambda: np.zeros((0, 3)))
-    scores: dict[str, float] = field(default_factory=dict)
-    candidates: tuple[int, int] = (0, 0)
 
 
 @runtime_checkable

@@ -40,9 +40,8 @@ import numpy as np
 import numpy.typing as npt
 
 from semexp_bt.core.types import FloatArray, Pose2D, Twist
+from semexp_bt.nav.control_result import ControlResult, ControlStatus
 from semexp_bt.nav.controller import (
-    ControlResult,
-    ControlStatus,
     MotionLimits,
     SafetyRules,
     admissible,

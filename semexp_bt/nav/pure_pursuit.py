@@ -30,9 +30,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from semexp_bt.core.types import Pose2D, Twist
+from semexp_bt.nav.control_result import ControlResult, ControlStatus
 from semexp_bt.nav.controller import (
-    ControlResult,
-    ControlStatus,
     MotionLimits,
     SafetyRules,
     admissible,

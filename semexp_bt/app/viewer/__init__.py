@@ -1,7 +1,8 @@
 """The browser view of a mission: the tree, the robot's world and the memory, live and replayed.
 
 - :mod:`~semexp_bt.app.viewer.observer`: the view as a tick observer (bounded queue, worker thread).
-- :mod:`~semexp_bt.app.viewer.frames`: what the tick thread captures for the world view.
+- :mod:`~semexp_bt.app.viewer.frames`: what a world frame holds (plain data, light to import).
+- :mod:`~semexp_bt.app.viewer.capture`: the tick thread's capture of a frame per tick with news.
 - :mod:`~semexp_bt.app.viewer.maps`: the one adapter from the planner's map to a drawable grid.
 - :mod:`~semexp_bt.app.viewer.world`: the world through Rerun (entity paths, blueprint, explanation).
 - :mod:`~semexp_bt.app.viewer.tree_page`: the tree page and its local HTTP server.

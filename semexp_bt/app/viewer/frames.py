@@ -1,19 +1,15 @@
 """What the tick thread hands the viewer: a :class:`WorldFrame` per tick that has something new to draw.
 
-:class:`FrameCapture` runs on the tick thread, after each tick, and must stay cheap: it compares a few
-blackboard values by identity (a behaviour writes a new object when it has news), copies what the tree
-mutates in place (the memory's nodes when a memory writer has just finished, the map at most once per
-:data:`~semexp_bt.app.viewer.maps.MAP_PERIOD_S`), and reads the robot's pose at :data:`POSE_RATE_HZ`.
-Everything in a frame is immutable or a fresh copy, so the viewer's worker thread may draw it while the
-tree goes on.
-
-It reads the board's storage directly (``py_trees.blackboard.Blackboard.storage``), not through a
-blackboard client: a client read would add to the activity stream that the tick record is made from.
+A frame is plain data: fresh copies or immutable values of the core types, numpy arrays, and the
+navigation stack's last controller cycle. :class:`~semexp_bt.app.viewer.capture.FrameCapture` builds
+them on the tick thread; the world logger (``world.py``) draws them in the view's world process
+(``world_process.py``), which unpickles them. So this module and the types it names import only numpy
+and the core types, never the tree's registry, the navigation stack's planners or the costmap: the world
+process would otherwise import them (0.9 s of CPU, docs/viewer.md, session 35) beside the mission.
 
 Example:
-    >>> capture = FrameCapture.for_tree(run.tree.root)  # doctest: +SKIP
-    >>> frame = capture.capture(run, visited={"UpdateMemory": "SUCCESS"})  # doctest: +SKIP
-    >>> frame.memory is not None  # UpdateMemory has just finished: the memory's nodes are copied
+    >>> frame = WorldFrame(tick=1, stamp_s=0.02, pose=Pose2D(0.0, 0.0, 0.0))
+    >>> frame.memory is None  # nothing else changed at that tick
     True
 """
 
@@ -21,24 +17,14 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
-import py_trees
+import numpy as np
+import numpy.typing as npt
 
-from semexp_bt.app.viewer.maps import MAP_PERIOD_S, MapLayer, map_layer, map_version
+from semexp_bt.core.evidence.result import ArbitrationResult
 from semexp_bt.core.types import NodeState, Observation, Pose2D, SceneEvidence, Subgoal, Twist
-from trees.registry import default_registry, key_uses
-
-if TYPE_CHECKING:
-    from semexp_bt.app.runner import MissionRun
-
-#: The robot's pose, velocity and command reach the view this often (Hz of robot time): a tenth of the
-#: tick rate is smooth to the eye and keeps the worker thread's share of the interpreter small.
-POSE_RATE_HZ = 10.0
-#: The behaviours that change the topological memory in place (the node types that declare ``memory`` written).
-MEMORY_WRITERS = frozenset(key_uses(default_registry())["memory"].writers)
-#: Statuses after which a memory writer has done its work for this tick.
-_DONE = frozenset({"SUCCESS", "FAILURE"})
+from semexp_bt.nav.control_result import ControlResult
 
 
 @dataclass(frozen=True)
@@ -63,6 +49,27 @@ class MemoryFrame:
 
 
 @dataclass(frozen=True)
+class MapLayer:
+    """A snapshot of the planner's map, ready to draw.
+
+    Attributes:
+        cells: ``(H, W)`` int8 in ``nav_msgs/OccupancyGrid`` convention (-1 unknown, 0 free, 100 lethal,
+            99 inscribed, 1-98 the inflation cost); row ``i`` is ``y = origin_y + i * res``, column ``j`` is
+            ``x = origin_x + j * res`` (row-major from the lower-left corner, as ROS).
+        origin_xy: world position (``map``) of the outer corner of cell ``(0, 0)``, m.
+        resolution_m: cell side, m.
+        version: changes whenever the map or the path does.
+        path_xy: ``(N, 2)`` the global path planned on this map; None when there is none.
+    """
+
+    cells: npt.NDArray[np.int8]
+    origin_xy: tuple[float, float]
+    resolution_m: float
+    version: int
+    path_xy: npt.NDArray[np.float64] | None = None
+
+
+@dataclass(frozen=True)
 class WorldFrame:
     """What changed in the world at one tick. Fields left None did not change (or are not due).
 
@@ -74,13 +81,13 @@ class WorldFrame:
         command: the last commanded twist on the board (``cmd_twist``).
         observation: a new perceived RGB-D frame (with its camera pose and intrinsics).
         answer: the models' answer about the last perceived frame.
-        arbitration: a new arbitration result (``semexp_bt.core.evidence.ArbitrationResult``).
+        arbitration: a new arbitration result.
         memory: the memory after a change.
         decision: a new decision step (the entry ``Decide`` wrote to the decision log: candidates with
             their Eq. 9 terms and utilities, the selected node, the reason).
         subgoal_changed: the subgoal on the board is a new one (``subgoal``, possibly None).
         subgoal: the subgoal on the board when ``subgoal_changed``.
-        plan: a new controller cycle (``semexp_bt.nav.controller.ControlResult``).
+        plan: a new controller cycle.
         map: the planner's map, when it changed and a redraw was due.
         events: mission events logged since the previous frame.
         outcome: the mission's outcome, on the last frame only.
@@ -93,116 +100,12 @@ class WorldFrame:
     command: Twist | None = None
     observation: Observation | None = None
     answer: ModelAnswer | None = None
-    arbitration: Any = None
+    arbitration: ArbitrationResult | None = None
     memory: MemoryFrame | None = None
     decision: Mapping[str, Any] | None = None
     subgoal_changed: bool = False
     subgoal: Subgoal | None = None
-    plan: Any = None
+    plan: ControlResult | None = None
     map: MapLayer | None = None
     events: tuple[Mapping[str, Any], ...] = field(default_factory=tuple)
     outcome: str | None = None
-
-
-class FrameCapture:
-    """Builds the :class:`WorldFrame` of each tick on the tick thread (see the module docstring).
-
-    Args:
-        memory_writers: names of the tree's nodes whose type changes the memory in place.
-    """
-
-    def __init__(self, *, memory_writers: frozenset[str] | set[str]) -> None:
-        self.memory_writers = frozenset(memory_writers)
-        self._seen: dict[str, Any] = {}
-        self._decisions = 0
-        self._events = 0
-        self._pose_due_s = -1.0
-        self._map_due_s = -1.0
-        self._map_version: int | None = None
-
-    @classmethod
-    def for_tree(cls, root: py_trees.behaviour.Behaviour) -> FrameCapture:
-        """A capture that knows which of ``root``'s nodes write the memory (by their type)."""
-        writers = {node.name for node in root.iterate() if type(node).__name__ in MEMORY_WRITERS}
-        return cls(memory_writers=writers)
-
-    def _new(self, storage: Mapping[str, Any], key: str) -> tuple[bool, Any]:
-        """Whether the board holds a different object under ``key`` than last time (a key not yet on the
-        board counts as None), and the object."""
-        value = storage.get(key)
-        if value is self._seen.get(key):
-            return False, value
-        self._seen[key] = value
-        return True, value
-
-    def capture(
-        self,
-        run: MissionRun,
-        *,
-        visited: Mapping[str, str],
-        force_pose: bool = False,
-        outcome: str | None = None,
-    ) -> WorldFrame | None:
-        """The frame of the tick that just ran, or None when the tick changed nothing the view draws (most
-        ticks: no frame is built for them).
-
-        Args:
-            run: the running mission.
-            visited: the status of every node ticked this tick, by name (the tick record's ``nodes``).
-            force_pose: read the pose even when it is not due (the first and the last frame).
-            outcome: the mission's outcome (the last frame).
-        """
-        storage = py_trees.blackboard.Blackboard.storage
-        services = run.services
-        now = run.now_s()
-        fields: dict[str, Any] = {} if outcome is None else {"outcome": outcome}
-        if force_pose or now >= self._pose_due_s:
-            self._pose_due_s = now + 1.0 / POSE_RATE_HZ - 1e-9
-            robot = services.robot
-            fields["pose"] = robot.base_pose()
-            fields["base_twist"] = robot.base_twist()
-            command = storage.get("/cmd_twist")
-            fields["command"] = command if isinstance(command, Twist) else None
-            new_plan, plan = self._new(storage, "/plan")
-            if new_plan and plan is not None:
-                fields["plan"] = plan
-        new_observation, observation = self._new(storage, "/observation")
-        if new_observation and isinstance(observation, Observation):
-            fields["observation"] = observation
-        new_detections, detections = self._new(storage, "/detections")
-        new_evidence, evidence = self._new(storage, "/scene_evidence")
-        if new_detections or new_evidence:
-            fields["answer"] = ModelAnswer(
-                detections=None if detections is None else tuple(detections),
-                scene_evidence=evidence if isinstance(evidence, SceneEvidence) else None,
-            )
-        new_arbitration, arbitration = self._new(storage, "/arbitration")
-        if new_arbitration and arbitration is not None:
-            fields["arbitration"] = arbitration
-        if "/memory" not in self._seen or not _DONE.isdisjoint(map(visited.get, self.memory_writers)):
-            memory = storage.get("/memory")
-            if memory is not None:
-                self._seen["/memory"] = memory
-                fields["memory"] = MemoryFrame(
-                    nodes=tuple(memory.nodes()),
-                    edges=tuple((int(u), int(v)) for u, v in memory.graph.edges()),
-                )
-        if len(services.decision_log) > self._decisions:
-            fields["decision"] = services.decision_log[-1]
-            self._decisions = len(services.decision_log)
-        new_subgoal, subgoal = self._new(storage, "/subgoal")
-        if new_subgoal:
-            fields["subgoal_changed"] = True
-            fields["subgoal"] = subgoal if isinstance(subgoal, Subgoal) else None
-        if now >= self._map_due_s:
-            version = map_version(storage)
-            if version is not None and version != self._map_version:
-                layer = map_layer(storage)
-                if layer is not None:
-                    fields["map"] = layer
-                    self._map_version = version
-                    self._map_due_s = now + MAP_PERIOD_S - 1e-9
-        if len(services.events) > self._events:
-            fields["events"] = tuple(services.events[self._events :])
-            self._events = len(services.events)
-        return WorldFrame(tick=run.tick, stamp_s=now, **fields) if fields else None

@@ -20,12 +20,12 @@ Example:
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
+from semexp_bt.app.viewer.frames import MapLayer
 from semexp_bt.nav.costmap import INSCRIBED_COST, LETHAL_COST, NO_INFORMATION_COST, Costmap
 from semexp_bt.nav.global_planner import GlobalPlan
 
@@ -40,27 +40,6 @@ INSCRIBED_CELL = 99
 MAP_PERIOD_S = 1.0
 #: Unknown cells kept around the observed part of the map (cells), so the drawn map has a border.
 MAP_MARGIN_CELLS = 5
-
-
-@dataclass(frozen=True)
-class MapLayer:
-    """A snapshot of the planner's map, ready to draw.
-
-    Attributes:
-        cells: ``(H, W)`` int8 in ``nav_msgs/OccupancyGrid`` convention (-1 unknown, 0 free, 100 lethal,
-            99 inscribed, 1-98 the inflation cost); row ``i`` is ``y = origin_y + i * res``, column ``j`` is
-            ``x = origin_x + j * res`` (row-major from the lower-left corner, as ROS).
-        origin_xy: world position (``map``) of the outer corner of cell ``(0, 0)``, m.
-        resolution_m: cell side, m.
-        version: changes whenever the map or the path does.
-        path_xy: ``(N, 2)`` the global path planned on this map; None when there is none.
-    """
-
-    cells: npt.NDArray[np.int8]
-    origin_xy: tuple[float, float]
-    resolution_m: float
-    version: int
-    path_xy: npt.NDArray[np.float64] | None = None
 
 
 def _occupancy_of_each_cost() -> npt.NDArray[np.int8]:

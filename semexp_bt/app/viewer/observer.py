@@ -5,7 +5,9 @@
 On the tick thread it does only cheap things: it hands each tick's record to the page's feed and the
 saved recording, and it puts the tick's :class:`~semexp_bt.app.viewer.frames.WorldFrame` (if the tick
 changed anything worth drawing) into a bounded queue. A worker thread takes the frames from the queue
-and logs them to Rerun, and writes the saved recording's tick records. When the queue is full the frame is dropped and counted, and the tick goes on:
+and hands them in batches to the view's world process (``world_process.py``: Rerun's logger, file sink
+and gRPC server, in a child interpreter on the other core), and writes the saved recording's tick
+records. When the queue is full the frame is dropped and counted, and the tick goes on:
 a slow browser, a slow disk or a busy core cost the view frames, never the tree ticks. The tick
 records themselves are small and are never dropped.
 
@@ -21,8 +23,6 @@ Example:
 
 from __future__ import annotations
 
-import contextlib
-import importlib
 import queue
 import sys
 import threading
@@ -34,7 +34,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
 from semexp_bt.app.recorder import TickRecorder
-from semexp_bt.app.viewer.frames import FrameCapture, WorldFrame
+from semexp_bt.app.viewer.capture import FrameCapture
+from semexp_bt.app.viewer.frames import WorldFrame
 from semexp_bt.app.viewer.recording import RecordingWriter
 from semexp_bt.app.viewer.tree_page import TickFeed, ViewServer, rerun_assets_dir, tree_structure
 from semexp_bt.app.viewer.world_process import WorldProcess
@@ -89,6 +90,10 @@ class ViewOptions:
         announce: called with the page's URL once it is served (the CLI prints it).
         after_mission: live only: called with the observer and the outcome when the mission has ended,
             before the page and the stream close (the CLI keeps them open there until Ctrl-C).
+        world_process: a world process the caller spawned early (:meth:`WorldProcess.spawn`), for one
+            mission: its interpreter start and Rerun's import then overlap the caller's own start-up
+            rather than the mission's set-up (the CLI spawns it before it imports the mission stack).
+            None: the observer spawns one when it is made.
     """
 
     live: bool = False
@@ -103,6 +108,7 @@ class ViewOptions:
     mission: Mapping[str, Any] = field(default_factory=dict)
     announce: Callable[[str], None] | None = None
     after_mission: Callable[[ViewObserver, str], None] | None = None
+    world_process: WorldProcess | None = None
 
 
 def require_world_view() -> None:
@@ -162,18 +168,14 @@ class ViewObserver:
         # Set when the mission has ended: the worker stops letting frames gather and drains the queue.
         self._draining = threading.Event()
         self._world_file: Path | None = None
-        # A saved view logs the world to Rerun in a child process (world_process.py says why); the live
-        # view in this process, on the worker thread: with Rerun's gRPC server in the child the mission
-        # paid more, not less (docs/viewer.md, session 23). Either way Rerun's import starts now and
-        # overlaps what the mission sets up before ``start`` (the child's interpreter, or a thread here).
+        # The world is logged to Rerun in a child process, live or saved (world_process.py says why),
+        # spawned by the caller or now, so that its interpreter and Rerun's import overlap what the
+        # mission sets up before ``start``.
         self._world_process: WorldProcess | None = None
-        self._rerun_import: threading.Thread | None = None
         if options.world and sink_factory is None:
-            if options.live:
-                self._rerun_import = threading.Thread(target=_import_rerun, name="semexp-view-import")
-                self._rerun_import.start()
-            else:
-                self._world_process = WorldProcess.spawn()
+            self._world_process = options.world_process or WorldProcess.spawn()
+        elif options.world_process is not None:  # spawned for a world this view does not log
+            options.world_process.disconnect()
 
     @property
     def url(self) -> str | None:
@@ -302,24 +304,16 @@ class ViewObserver:
         grpc_port: int | None,
         cors_origin: str | None,
     ) -> FrameSink:
-        """Rerun's logger for this mission: in the world process spawned in ``__init__`` (a saved view), or
-        here (live)."""
-        arguments: dict[str, Any] = {
-            "recording_id": recording_id,
-            "decision_config": run.services.config.decision,
-            "file_path": world_file,
-            "grpc_port": grpc_port,
-            "cors_origin": cors_origin,
-        }
-        if self._world_process is not None:
-            self._world_process.open(**arguments)
-            return self._world_process
-        if self._rerun_import is not None:
-            self._rerun_import.join()
-            self._rerun_import = None
-        from semexp_bt.app.viewer.world import WorldLogger
-
-        return WorldLogger(**arguments)
+        """Rerun's logger for this mission, in the world process spawned in ``__init__``."""
+        assert self._world_process is not None  # spawned whenever the default sink is used
+        self._world_process.open(
+            recording_id=recording_id,
+            decision_config=run.services.config.decision,
+            file_path=world_file,
+            grpc_port=grpc_port,
+            cors_origin=cors_origin,
+        )
+        return self._world_process
 
     # ------------------------------------------------------------------ the worker
     def _enqueue(self, frame: WorldFrame | None, *, wait_s: float = 0.0) -> None:
@@ -391,11 +385,3 @@ class ViewObserver:
             self.worker_errors.append("the world logger did not drain its queue; the recording is incomplete")
         self._worker.join(timeout=DRAIN_TIMEOUT_S)
         self._worker = None
-
-
-def _import_rerun() -> None:
-    """Import Rerun's SDK (on the thread :class:`ViewObserver` starts when it is made)."""
-    # An SDK that does not import (or any error on the way) is reported where the sink is built, by the
-    # same import on the mission's thread; this thread only warms the module cache.
-    with contextlib.suppress(Exception):
-        importlib.import_module("rerun")

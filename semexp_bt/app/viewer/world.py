@@ -2,8 +2,8 @@
 
 :class:`WorldLogger` turns each :class:`~semexp_bt.app.viewer.frames.WorldFrame` into Rerun log calls on
 two timelines, ``tick`` (sequence) and ``sim_time`` (robot clock), to a file (``world.rrd`` of a saved
-recording), to an in-process gRPC server that a browser's Rerun viewer connects to (the live view), or
-both. It runs on the viewer's worker thread, never on the tick thread.
+recording), to a gRPC server that a browser's Rerun viewer connects to (the live view), or both. It runs
+in the view's world process (``world_process.py``), never in the mission's.
 
 What is logged where (the entity paths are named once, here, and read back by the MCAP export):
 
@@ -25,10 +25,10 @@ What is logged where (the entity paths are named once, here, and read back by th
   mission's events (text log).
 
 The streams that come at the pose rate (the pose, the trajectory, both twists, the controller's
-trajectory) are held as rows and sent as columns (``rr.send_columns``) when the worker calls
-:meth:`WorldLogger.flush` after each batch of frames: one native call per entity and batch instead of one
-per row. Every ``rr.log`` call releases and retakes the interpreter lock, and on two cores each retake
-waits for the tick thread; the rows are the same ones, at the same ticks, either way.
+trajectory) are held as rows and sent as columns (``rr.send_columns``) at :meth:`WorldLogger.flush`,
+after each batch of frames: one native call per entity and batch instead of one per row, which costs the
+world process less CPU, and on two cores that CPU is taken beside the mission. The rows are the same
+ones, at the same ticks, either way.
 """
 
 from __future__ import annotations
@@ -38,19 +38,14 @@ import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
+from semexp_bt.app.viewer.frames import MapLayer, MemoryFrame, ModelAnswer, WorldFrame
 from semexp_bt.core.config import DecisionConfig
 from semexp_bt.core.types import Observation, Pose2D, Subgoal, Twist
-
-if TYPE_CHECKING:
-    # Types only: the saved view's world process makes its logger before it has unpickled a frame, and
-    # these modules bring the navigation stack and the tree's registry (0.6 s of imports) with them.
-    from semexp_bt.app.viewer.frames import MemoryFrame, ModelAnswer, WorldFrame
-    from semexp_bt.app.viewer.maps import MapLayer
 
 #: Rerun application id of every semexp-bt recording.
 APPLICATION_ID = "semexp_bt"

@@ -1,18 +1,22 @@
-"""The world's Rerun logging in a process of its own: the saved view's frame sink.
+"""The world's Rerun logging in a process of its own: the view's frame sink, live and saved.
 
 :class:`WorldProcess` is a :class:`~semexp_bt.app.viewer.observer.FrameSink` whose
 :class:`~semexp_bt.app.viewer.world.WorldLogger` runs in a child process. The observer's worker thread
 hands it a batch of frames at each ``flush``; the batch goes to the child as one message, and the child
-logs it to Rerun while the mission ticks.
+logs it to Rerun (to ``world.rrd``, to the live view's gRPC server, or both) while the mission ticks.
 
 Why a process and not the worker thread alone: in one process every Rerun call of the worker takes the
-interpreter lock from the tick thread, and on the two-core development VM the worker's share (about 3 ms
-per simulated second) and Rerun's import (about 0.3 s, once) were paid in the mission's wall time
-(docs/viewer.md, session 23). A child on the other core takes both off the tick thread; what stays is
-pickling each batch. The child is spawned (not forked: the mission's process holds MuJoCo's GL context
-and torch's threads) when the observer is made, so its interpreter start and imports overlap the
-mission's set-up. The live view does not use it: with Rerun's gRPC server in the child the mission paid
-more, not less (docs/viewer.md, session 23).
+interpreter lock from the tick thread, and on the two-core development VM the worker's share (about 2 ms
+per simulated second) and Rerun's import (about 0.4 s of interpreter time, once) were paid in the
+mission's wall time (docs/viewer.md, sessions 23 and 35). A child on the other core takes both off the
+tick thread; what stays is pickling each batch. The child is spawned (not forked: the mission's process
+holds MuJoCo's GL context and torch's threads) early, so that its interpreter start and imports are done
+by the time the mission starts: ``semexp-bt run`` spawns it before it imports the mission stack and
+hands it over in ``ViewOptions.world_process``; otherwise the observer spawns it when it is made, and it
+overlaps the mission's set-up. What it imports is kept small (Rerun, the logger and the frames'
+plain types, ``frames.py``): a child that imported the navigation stack and the tree's registry to
+unpickle its first batch spent 0.9 s of CPU on it beside the mission, and the live view cost more in the
+child than in process until that was gone (docs/viewer.md, session 35).
 
 A child that stops reading for a while (its Rerun import on a cold disk, a core taken by other work, a
 debugger) must not cost the saved recording frames: each message is pickled on the caller's thread into
@@ -50,8 +54,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    # Types only: the child imports this module first and must answer ``open`` soon; the frames' modules
-    # (the navigation stack, the tree's registry) load when the first batch is unpickled.
+    # Types only: the child imports this module first, then Rerun, then the logger (which brings the
+    # frames' light modules, so that the first batch unpickles with no import).
     from semexp_bt.app.viewer.frames import WorldFrame
     from semexp_bt.core.config import DecisionConfig
 
