@@ -45,6 +45,8 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 CONFIGS = ("off", "record", "view", "live_only", "live", "stalled")
+#: The configurations that view the mission (the others run it plainly or only record its ticks).
+VIEW_CONFIGS = ("view", "live_only", "live", "stalled")
 
 
 def _children_cpu_s() -> float:
@@ -56,7 +58,7 @@ def _children_cpu_s() -> float:
 def one_run(config: str, sim_s: float, workdir: Path) -> dict[str, float]:
     """Run the mission once in this process; the figures as a dict (called in a child process)."""
     world_process = None
-    if config in ("view", "live_only", "live", "stalled"):
+    if config in VIEW_CONFIGS:
         # As ``semexp-bt run`` does: the view's world process is spawned before the mission stack is
         # imported, so that Rerun's import in it overlaps those imports.
         from semexp_bt.app.viewer.world_process import WorldProcess
@@ -117,7 +119,7 @@ def one_run(config: str, sim_s: float, workdir: Path) -> dict[str, float]:
             viewer.wait(timeout=10.0)
 
     view = None
-    if config in ("view", "live_only", "live", "stalled"):
+    if config in VIEW_CONFIGS:
         view = ViewOptions(
             live=config != "view",
             record_dir=None if config == "live_only" else workdir / "view",

@@ -231,13 +231,12 @@ def _view_options(args: argparse.Namespace) -> Any:
     """The view's options from ``--view`` / ``--view-record``, or None when neither is given."""
     if not args.view and args.view_record is None:
         return None
-    import importlib.util
-
+    from semexp_bt.app.viewer.tree_page import world_view_available
     from semexp_bt.app.viewer.world_process import WorldProcess
 
     # Spawned before anything heavy is imported (this module imports only the mission stack's light
     # parts): without the viewer extra there is nothing to spawn, and the observer says so.
-    world_process = WorldProcess.spawn() if importlib.util.find_spec("rerun") is not None else None
+    world_process = WorldProcess.spawn() if world_view_available() else None
     from semexp_bt.app.viewer.observer import ViewOptions
 
     def announce(url: str) -> None:

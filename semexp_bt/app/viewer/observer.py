@@ -37,7 +37,7 @@ from semexp_bt.app.recorder import TickRecorder
 from semexp_bt.app.viewer.capture import FrameCapture
 from semexp_bt.app.viewer.frames import WorldFrame
 from semexp_bt.app.viewer.recording import RecordingWriter
-from semexp_bt.app.viewer.tree_page import TickFeed, ViewServer, rerun_assets_dir, tree_structure
+from semexp_bt.app.viewer.tree_page import TickFeed, ViewServer, tree_structure, world_view_available
 from semexp_bt.app.viewer.world_process import WorldProcess
 
 if TYPE_CHECKING:
@@ -113,9 +113,7 @@ class ViewOptions:
 
 def require_world_view() -> None:
     """Raise :class:`ViewerUnavailableError` unless Rerun and its web viewer are installed."""
-    import importlib.util
-
-    if importlib.util.find_spec("rerun") is None or rerun_assets_dir() is None:
+    if not world_view_available():
         raise ViewerUnavailableError(
             "the world view needs the viewer extra (Rerun and its web viewer): pip install -e '.[viewer]'"
         )

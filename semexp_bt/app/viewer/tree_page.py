@@ -115,6 +115,12 @@ def rerun_assets_dir() -> Path | None:
     return static if all((static / name).is_file() for name in RERUN_ASSETS) else None
 
 
+def world_view_available() -> bool:
+    """Whether Rerun's SDK and its web viewer are installed (the ``viewer`` extra), found without importing
+    either: the CLI asks before it spawns the view's world process, the observer before it starts."""
+    return importlib.util.find_spec("rerun") is not None and rerun_assets_dir() is not None
+
+
 class TickFeed:
     """The session the page shows, and its tick records as they arrive (thread-safe).
 
