@@ -16,7 +16,7 @@ from py_trees.common import Status
 
 from behaviours.confirm_target import ConfirmTarget
 from semexp_bt.core.geometry import wrap_angle
-from semexp_bt.core.types import Observation, Pose2D, Twist
+from semexp_bt.core.types import Observation, Pose2D, Subgoal, Twist
 from semexp_bt.perception.interface import PerceptionResult
 from tests.behaviours.rig import INSTRUCTION, Rig, compact, robot_among
 from tests.test_executive import Post, seeing
@@ -91,21 +91,85 @@ def test_a_target_that_votes_in_every_other_view_is_confirmed_within_the_default
     assert confirm.feedback_message == "only 1 of 3 further views confirmed 'fire extinguisher'"
 
 
-def test_a_first_view_that_does_not_vote_fails_at_once_and_lowers_the_node_in_view(
-    make_rig: Callable[..., Rig],
-) -> None:
-    rig = make_rig(robot=robot_among(TARGET))
+def robot_at_a_target_node(
+    make_rig: Callable[..., Rig], further_views: list[Callable[..., object]], *, came_to_look: bool = True
+) -> tuple[Rig, int]:
+    """The robot 0.8 m from the target with a memory node of it in view, and a first view that missed it;
+    with ``came_to_look`` that node was the subgoal the robot walked to."""
+    rig = make_rig(robot=robot_among(TARGET), script=further_views, latency_s=1.0)
     memory = rig.get("memory")
     memory.add_master(position_m=(0.0, 0.0, 0.0), stamp_s=0.0)
     node = memory.update(position_m=(0.7, 0.0, 0.3), label="fire extinguisher", confidence=0.8, stamp_s=0.0)
-    before = memory.node(node.node_id).potential
+    if came_to_look:
+        rig.set("subgoal", Subgoal(node.node_id, (0.7, 0.0, 0.3), "fire extinguisher", 0.8))
     rig.stage_view([])  # the target is there, but this view did not report it
-    confirm = rig.build(ConfirmTarget, reject_potential_factor=0.5)
+    return rig, node.node_id
+
+
+def test_a_first_view_that_does_not_vote_with_no_target_node_in_view_fails_at_once(
+    make_rig: Callable[..., Rig],
+) -> None:
+    rig = make_rig(robot=robot_among(TARGET))
+    rig.get("memory").add_master(position_m=(0.0, 0.0, 0.0), stamp_s=0.0)
+    rig.stage_view([])
+    confirm = rig.build(ConfirmTarget)
     assert rig.tick(confirm) == [Status.FAILURE]
     rig.show(confirm)
     assert confirm.feedback_message == "no confirmable target here"
-    assert memory.node(node.node_id).potential == pytest.approx(0.5 * before)
     assert rig.perception.requests == []
+
+
+def test_with_one_first_vote_view_a_miss_at_a_target_node_fails_at_once_and_lowers_the_node(
+    make_rig: Callable[..., Rig],
+) -> None:
+    rig, node_id = robot_at_a_target_node(make_rig, [SEES])
+    memory = rig.get("memory")
+    before = memory.node(node_id).potential
+    confirm = rig.build(ConfirmTarget, reject_potential_factor=0.5, first_vote_views=1)
+    assert rig.tick(confirm) == [Status.FAILURE]
+    rig.show(confirm)
+    assert confirm.feedback_message == "no confirmable target here"
+    assert memory.node(node_id).potential == pytest.approx(0.5 * before)
+    assert rig.perception.requests == []
+
+
+def test_a_target_node_the_robot_did_not_walk_to_is_not_looked_at_again(make_rig: Callable[..., Rig]) -> None:
+    # A robot held near a node (blocked on its way elsewhere) would otherwise look again at every step.
+    rig, _ = robot_at_a_target_node(make_rig, [SEES], came_to_look=False)
+    confirm = rig.build(ConfirmTarget)
+    assert rig.tick(confirm) == [Status.FAILURE]
+    rig.show(confirm)
+    assert rig.perception.requests == []
+
+
+def test_at_a_target_node_it_looks_again_and_a_later_first_vote_starts_the_confirmation(
+    make_rig: Callable[..., Rig],
+) -> None:
+    # From close by a real goal votes in about a third of the views: one missed view at a node of the
+    # instructed object is not evidence enough to walk away (docs/planner.md, twenty-fourth round).
+    rig, _ = robot_at_a_target_node(make_rig, [BLIND, SEES, SEES, SEES, SEES])
+    confirm = rig.build(ConfirmTarget)
+    statuses = rig.tick_until_done(confirm)
+    rig.show(confirm)
+    assert compact(statuses) == ["RUNNING", "SUCCESS"]
+    # One more miss, the first vote, then the three further votes.
+    assert len(rig.perception.requests) == 5
+    assert [e["kind"] for e in rig.services.events] == ["target_confirmed"]
+
+
+def test_at_a_target_node_no_vote_in_the_first_vote_views_fails_and_lowers_the_node_once(
+    make_rig: Callable[..., Rig],
+) -> None:
+    rig, node_id = robot_at_a_target_node(make_rig, [BLIND])
+    memory = rig.get("memory")
+    before = memory.node(node_id).potential
+    confirm = rig.build(ConfirmTarget, reject_potential_factor=0.5, first_vote_views=3)
+    assert compact(rig.tick_until_done(confirm)) == ["RUNNING", "FAILURE"]
+    rig.show(confirm)
+    assert len(rig.perception.requests) == 2  # the step's own view and two more
+    assert confirm.feedback_message == "no confirmable target in 3 views"
+    assert memory.node(node_id).potential == pytest.approx(0.5 * before)
+    assert [(e["kind"], e["views"]) for e in rig.services.events] == [("first_vote_missed", 3)]
 
 
 def test_with_no_further_views_required_the_first_vote_confirms(make_rig: Callable[..., Rig]) -> None:
