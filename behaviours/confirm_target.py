@@ -91,7 +91,7 @@ object itself (the VLM's "shelf" for the detector's "bucket shelf") still lies o
 Looking again for the first vote: from close by a real goal votes in about a third of the views (the
 detector's confidence falls as the image border cuts the object), so a robot that walked to a node of
 the instructed object and missed it in the one view it took walked on, and often came back minutes later
-(laboratory seed 1000+1: the black chair boxed at 0.31-0.32 from 0.55 m, scores 0.017 against 0.05, then
+(laboratory seed 1001: the black chair boxed at 0.31-0.32 from 0.55 m, scores 0.017 against 0.05, then
 62 m more of search; docs/planner.md, twenty-fourth round). With p = 0.34 a view, one view starts 34 % of
 such confirmations and four 81 %; a look-alike voting 0.12 a view starts 40 %, and still needs the votes,
 the box and the names.
