@@ -134,6 +134,10 @@ def _in_view(point_m: tuple[float, float, float], observation: Observation) -> b
     return 0.0 <= u < k.width_px and 0.0 <= v < k.height_px
 
 
+#: A view's vote: the label it voted for, the voted point in ``map`` and whether a detector box was among
+#: the voting candidates.
+Vote = tuple[str, np.ndarray, bool]
+
 #: Why a confirmation was refused, as its ``confirmation_rejected`` event's ``cause`` says (the benchmark
 #: rows count them, ``semexp_bt.bench.rows``): too few further views voted; the votes' mean lay beyond
 #: the declaration distance; no vote carried a detector box; the names heard at the spot disagreed.
@@ -370,7 +374,7 @@ class ConfirmTarget(SemExpBehaviour):
         arbitration: ArbitrationResult | None,
         scene: SceneEvidence | None,
         observation: Observation | None,
-    ) -> tuple[str, np.ndarray, bool] | None:
+    ) -> Vote | None:
         """The label and world position of the best candidate in this view that votes for the target
         (see the module docstring), and whether a detector box is among the voting candidates; or None."""
         if arbitration is None or observation is None:
@@ -494,7 +498,7 @@ class ConfirmTarget(SemExpBehaviour):
             and subgoal.node_id in self._target_nodes_in_view(observation)
         )
 
-    def _start_confirmation(self, vote: tuple[str, np.ndarray, bool]) -> None:
+    def _start_confirmation(self, vote: Vote) -> None:
         """Take ``vote`` as the first: the further views count toward it."""
         self._label, first_point, self._first_boxed = vote
         self._vote_points, self._boxed = [first_point], self._first_boxed
@@ -504,20 +508,13 @@ class ConfirmTarget(SemExpBehaviour):
 
     def _look_for_first_vote(self) -> py_trees.common.Status:
         """Another view at a node of the instructed object, until one votes or ``first_vote_views`` are spent."""
-        if self._job is None:
-            self._observation = self.services.robot.observe()
-            self._job = self.submit_view(self._observation)
-            self.feedback_message = (
-                f"looking again for the instructed object: view {self._seeking_views + 1} of at most "
-                f"{self.first_vote_views}"
-            )
+        judged, vote = self._next_view(
+            f"looking again for the instructed object: view {self._seeking_views + 1} of at most "
+            f"{self.first_vote_views}"
+        )
+        if not judged:
             return py_trees.common.Status.RUNNING
-        result = self._job.poll(now_s=self.now_s())
-        if result is None:
-            return py_trees.common.Status.RUNNING
-        self._job = None
         self._seeking_views += 1
-        vote = self._judge(result, self._observation)
         if vote is not None:
             self._seeking = False
             self._start_confirmation(vote)
@@ -527,9 +524,21 @@ class ConfirmTarget(SemExpBehaviour):
             return self._reject(f"no confirmable target in {self._seeking_views} views")
         return py_trees.common.Status.RUNNING
 
-    def _judge(
-        self, result: PerceptionResult, observation: Observation
-    ) -> tuple[str, np.ndarray, bool] | None:
+    def _next_view(self, feedback: str) -> tuple[bool, Vote | None]:
+        """Take the next view: observe and submit it (saying ``feedback``), then wait for its reply;
+        ``(True, its vote)`` once the reply is judged, ``(False, None)`` while it is pending."""
+        if self._job is None:
+            self._observation = self.services.robot.observe()
+            self._job = self.submit_view(self._observation)
+            self.feedback_message = feedback
+            return False, None
+        result = self._job.poll(now_s=self.now_s())
+        if result is None:
+            return False, None
+        self._job = None
+        return True, self._judge(result, self._observation)
+
+    def _judge(self, result: PerceptionResult, observation: Observation) -> Vote | None:
         """Arbitrate a perception reply on its own view and return that view's vote (see :meth:`_vote`)."""
         result = screen_result(result)  # a reply that is not evidence is missing, not used
         for error in result.errors:
@@ -581,21 +590,14 @@ class ConfirmTarget(SemExpBehaviour):
             return self._succeed()
         if self._moved and not self._standing_still():
             return py_trees.common.Status.RUNNING  # a view from a moving base would be blurred
-        if self._job is None:
-            self._observation = self.services.robot.observe()
-            self._job = self.submit_view(self._observation)
-            where = "from afar" if self._from_afar else "from close by"
-            self.feedback_message = (
-                f"confirming {self._label!r} {where}: {self._votes}/{self.extra_views} votes, "
-                f"view {self._views + 1} of at most {self.max_extra_views}"
-            )
+        where = "from afar" if self._from_afar else "from close by"
+        judged, vote = self._next_view(
+            f"confirming {self._label!r} {where}: {self._votes}/{self.extra_views} votes, "
+            f"view {self._views + 1} of at most {self.max_extra_views}"
+        )
+        if not judged:
             return py_trees.common.Status.RUNNING
-        result = self._job.poll(now_s=self.now_s())
-        if result is None:
-            return py_trees.common.Status.RUNNING
-        self._job = None
         self._views += 1
-        vote = self._judge(result, self._observation)
         if (
             vote is not None
             and np.linalg.norm(vote[1][:2] - self._vote_points[0][:2]) <= self.consistency_radius_m
