@@ -19,7 +19,7 @@ import os
 import sys
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from semexp_bt.app.components import (
     DEFAULT_PLANNER,
@@ -33,6 +33,10 @@ from semexp_bt.app.models_profile import add_models_arguments, models_profile_fr
 from semexp_bt.cli.arguments import output_file, print_error, scene_name, seed, strategy_name
 from semexp_bt.core.durable import write_json
 from trees.loader import MissionLoadError
+
+if TYPE_CHECKING:
+    # Types only: the view's modules load when --view asks for them (start-up stays light).
+    from semexp_bt.app.viewer.observer import ViewOptions
 
 #: Backends whose missions run in a simulated scene (they need ``--scene``).
 SIMULATED_BACKENDS = ("mujoco",)
@@ -138,7 +142,7 @@ def run(args: argparse.Namespace) -> int:
     return _report(record)
 
 
-def _run_ros2(args: argparse.Namespace, view: Any) -> int:
+def _run_ros2(args: argparse.Namespace, view: ViewOptions | None) -> int:
     """The mission over ROS 2: the executive's record, a one-line summary, the exit status."""
     import signal
     from types import FrameType
@@ -201,7 +205,7 @@ def _run_ros2(args: argparse.Namespace, view: Any) -> int:
     return 1
 
 
-def _run(args: argparse.Namespace, view: Any) -> dict[str, Any]:
+def _run(args: argparse.Namespace, view: ViewOptions | None) -> dict[str, Any]:
     from semexp_bt.app.configuration import read_config_file
     from semexp_bt.app.episode import EpisodeOptions, run_episode
     from sims.faults import load_faults_file
@@ -227,7 +231,7 @@ def _run(args: argparse.Namespace, view: Any) -> dict[str, Any]:
     )
 
 
-def _view_options(args: argparse.Namespace) -> Any:
+def _view_options(args: argparse.Namespace) -> ViewOptions | None:
     """The view's options from ``--view`` / ``--view-record``, or None when neither is given."""
     if not args.view and args.view_record is None:
         return None
