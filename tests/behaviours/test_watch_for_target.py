@@ -9,6 +9,7 @@ from collections.abc import Callable
 import pytest
 from py_trees.common import Status
 
+from behaviours.decide import PRIVILEGED_GOAL_NODE_ID
 from behaviours.watch_for_target import WatchForTarget
 from semexp_bt.core.memory import MemoryUpdate, TopologicalMemory
 from semexp_bt.core.types import Pose2D, Twist
@@ -77,6 +78,19 @@ def test_the_object_at_the_subgoal_itself_is_no_reason_to_stop(make_rig: Callabl
     assert compact(statuses) == ["RUNNING"]
     assert rig.get("nav_failure") is None
     assert len(_nodes_labelled(rig, "fire extinguisher")) == 1  # still remembered
+
+
+def test_a_privileged_subgoal_is_never_handed_back(make_rig: Callable[..., Rig]) -> None:
+    # oracle_nav walks to the true goal; the same sighting that hands an exploration subgoal back
+    # (the first test) leaves it alone, and still enters the memory.
+    rig = walking_rig(make_rig, EXTINGUISHER)
+    rig.set("subgoal", subgoal_at(0.0, 5.0, node_id=PRIVILEGED_GOAL_NODE_ID))
+    watch = rig.build(WatchForTarget, period_s=2.0)
+    statuses = rig.tick(watch, ticks=250)
+    rig.show(watch)
+    assert compact(statuses) == ["RUNNING"]
+    assert rig.get("nav_failure") is None
+    assert len(_nodes_labelled(rig, "fire extinguisher")) == 1
 
 
 def test_other_objects_leave_the_memory_and_the_subgoal_alone(make_rig: Callable[..., Rig]) -> None:
