@@ -161,6 +161,8 @@ class WatchForTarget(SemExpBehaviour):
         pose = self.services.robot.base_pose()
         offered = 0
         sighted: tuple[int, str, float] | None = None
+        # No sighting is a better subgoal than the true goal (oracle_nav's): its sightings only enter the memory.
+        may_supersede = subgoal is None or subgoal.node_id != PRIVILEGED_GOAL_NODE_ID
         for index, candidate in enumerate(arbitration.candidates):
             if candidate.kind == "direction" or candidate.score < self.min_score:
                 continue
@@ -184,13 +186,15 @@ class WatchForTarget(SemExpBehaviour):
                 takes_over=self.services.place_labels if self._takes_places(candidate) else frozenset(),
             )
             offered += 1
-            if sighted is not None or update.node_id is None or update.node_id in self._handed_back:
+            if not may_supersede or sighted is not None:
+                continue
+            if update.node_id is None or update.node_id in self._handed_back:
                 continue
             node = memory.node(update.node_id)
             if node.potential < config.decision.tau_p:
                 continue
             if subgoal is not None:
-                if subgoal.node_id in (update.node_id, PRIVILEGED_GOAL_NODE_ID):
+                if subgoal.node_id == update.node_id:
                     continue
                 gx, gy, _ = subgoal.position_m
                 if math.hypot(point[0] - gx, point[1] - gy) <= self.superseded_beyond_m:
