@@ -24,9 +24,11 @@ from behaviours.base import SemExpBehaviour
 from behaviours.spec import param
 
 #: The values ``nav_failure`` takes (who writes them: ComputePathToSubgoal, FollowPath, StuckGuard,
-#: WatchForTarget: ``superseded``, the subgoal handed back because the instructed object came into view).
+#: WatchForTarget: ``superseded``, the subgoal handed back because the instructed object came into view;
+#: WatchPlaceSeen: ``explored``, a place subgoal handed back because the cameras saw it on the way).
 SUPERSEDED = "superseded"
-NAV_FAILURES = ("no_path", "start_blocked", "blocked", "stuck", SUPERSEDED)
+EXPLORED = "explored"
+NAV_FAILURES = ("no_path", "start_blocked", "blocked", "stuck", SUPERSEDED, EXPLORED)
 #: The kinds that mean no plan reaches the subgoal (the default; each node gets its own checked copy).
 UNREACHABLE_KINDS = ["no_path", "start_blocked"]
 

@@ -78,6 +78,10 @@ class Offer(NamedTuple):
 
 #: Label of a geometric frontier node (the relevance scorer sees it like a VLM's direction label).
 FRONTIER_LABEL = "unexplored area"
+#: A place node counts as seen once the costmap has observed this share of its neighbourhood ...
+PLACE_SEEN_FRACTION = 0.85
+#: ... of this radius, m: nothing is left to discover there.
+PLACE_NEIGHBOURHOOD_M = 1.0
 
 
 class UpdateMemory(SemExpBehaviour):
@@ -158,8 +162,8 @@ class UpdateMemory(SemExpBehaviour):
     min_place_depth_m = 0.5
     #: Eq. 7 on the costmap: place nodes within this radius of the robot are checked, m ...
     map_observe_radius_m = 6.0
-    #: ... and decay once the map knows this share of their 1 m neighbourhood.
-    seen_fraction = 0.85
+    #: ... and decay once the map has seen them (PLACE_SEEN_FRACTION of PLACE_NEIGHBOURHOOD_M).
+    seen_fraction = PLACE_SEEN_FRACTION
 
     def __init__(self, name: str, **kwargs: Any) -> None:
         super().__init__(name, **kwargs)
@@ -345,7 +349,10 @@ class UpdateMemory(SemExpBehaviour):
                 continue
             if state.label not in self.services.place_labels:
                 continue  # objects and landmarks keep their pull: a later instruction may ask for them
-            if local_map.known_fraction(state.position_m[:2], radius_m=1.0) >= self.seen_fraction:
+            if (
+                local_map.known_fraction(state.position_m[:2], radius_m=PLACE_NEIGHBOURHOOD_M)
+                >= self.seen_fraction
+            ):
                 memory.scale_potential(node_id=node_id, factor=1.0 - xi)
         if self.map_frontier_confidence > 0.0:
             for x, y, cells in local_map.frontiers((pose.x_m, pose.y_m), radius_m=self.map_observe_radius_m):

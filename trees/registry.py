@@ -689,6 +689,7 @@ def product_behaviours() -> list[NodeSpec]:
     from behaviours.update_memory import UpdateMemory
     from behaviours.wait import Wait
     from behaviours.watch_for_target import WatchForTarget
+    from behaviours.watch_place_seen import WatchPlaceSeen
 
     return [
         behaviour_spec(RateLimiter),
@@ -703,6 +704,7 @@ def product_behaviours() -> list[NodeSpec]:
         behaviour_spec(ComputePathToSubgoal),
         behaviour_spec(FollowPath),
         behaviour_spec(WatchForTarget),
+        behaviour_spec(WatchPlaceSeen),
         behaviour_spec(Gait),
         behaviour_spec(ConfirmTarget),
         behaviour_spec(StopRobot),
