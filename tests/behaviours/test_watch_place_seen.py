@@ -33,6 +33,16 @@ def subgoal_node(
     return subgoal
 
 
+def walked_past(rig: Rig, watch: WatchPlaceSeen) -> list[Status]:
+    """The statuses once the cameras have seen the place: one tick as the trip starts (the place unseen
+    then), a full turn of depth frames into the costmap, ten ticks more; the tree printed."""
+    rig.tick(watch, ticks=1)
+    rig.map_around()
+    statuses = rig.tick(watch, ticks=10)
+    rig.show(watch)
+    return statuses
+
+
 def test_a_place_seen_on_the_way_hands_the_subgoal_back(rig: Rig) -> None:
     subgoal = subgoal_node(rig)
     watch = rig.build(WatchPlaceSeen)
@@ -75,11 +85,7 @@ def test_a_place_seen_before_the_trip_began_is_walked_to(rig: Rig) -> None:
 def test_an_object_subgoal_is_walked_to_however_well_it_is_seen(rig: Rig) -> None:
     subgoal_node(rig, label="fire extinguisher")
     watch = rig.build(WatchPlaceSeen)
-    rig.tick(watch, ticks=1)
-    rig.map_around()
-    statuses = rig.tick(watch, ticks=10)
-    rig.show(watch)
-    assert compact(statuses) == ["RUNNING"]
+    assert compact(walked_past(rig, watch)) == ["RUNNING"]
     assert rig.get("nav_failure") is None
 
 
@@ -87,18 +93,14 @@ def test_close_to_the_place_the_robot_walks_on_to_it(make_rig: Callable[..., Rig
     rig = make_rig()
     subgoal_node(rig, at=(1.2, 0.0))
     watch = rig.build(WatchPlaceSeen, finish_within_m=1.5)
-    rig.tick(watch, ticks=1)
-    rig.map_around()
-    statuses = rig.tick(watch, ticks=10)
-    rig.show(watch)
-    assert compact(statuses) == ["RUNNING"]
+    assert compact(walked_past(rig, watch)) == ["RUNNING"]
     assert watch.feedback_message.endswith("1.2 m away")
 
 
 def test_a_place_taken_over_by_the_object_on_the_way_is_walked_to(rig: Rig) -> None:
     subgoal = subgoal_node(rig)
     watch = rig.build(WatchPlaceSeen)
-    rig.tick(watch, ticks=1)
+    rig.tick(watch, ticks=1)  # the trip starts for a place
     rig.get("memory").update(  # the detector boxed the instructed object there: it takes the place over
         position_m=subgoal.position_m,
         label="fire extinguisher",
@@ -106,10 +108,7 @@ def test_a_place_taken_over_by_the_object_on_the_way_is_walked_to(rig: Rig) -> N
         stamp_s=rig.robot.now_s(),
         takes_over=frozenset({FRONTIER_LABEL}),
     )
-    rig.map_around()
-    statuses = rig.tick(watch, ticks=10)
-    rig.show(watch)
-    assert compact(statuses) == ["RUNNING"]
+    assert compact(walked_past(rig, watch)) == ["RUNNING"]
     assert rig.get("memory").node(subgoal.node_id).label == "fire extinguisher"
 
 
@@ -126,9 +125,5 @@ def test_without_a_subgoal_it_runs(make_rig: Callable[..., Rig]) -> None:
 def test_off_by_default_a_place_seen_on_the_way_is_walked_to(rig: Rig) -> None:
     subgoal_node(rig, switched_on=False)
     watch = rig.build(WatchPlaceSeen)
-    rig.tick(watch, ticks=1)
-    rig.map_around()
-    statuses = rig.tick(watch, ticks=10)
-    rig.show(watch)
-    assert compact(statuses) == ["RUNNING"]
+    assert compact(walked_past(rig, watch)) == ["RUNNING"]
     assert rig.get("nav_failure") is None
