@@ -84,6 +84,13 @@ PLACE_SEEN_FRACTION = 0.85
 PLACE_NEIGHBOURHOOD_M = 1.0
 
 
+def place_is_seen(local_map: Costmap, position_m: Sequence[float]) -> bool:
+    """Whether the costmap has observed ``PLACE_SEEN_FRACTION`` of the ``PLACE_NEIGHBOURHOOD_M`` around a
+    place (Eq. 7 on the costmap decays it then; WatchPlaceSeen hands it back)."""
+    xy = (float(position_m[0]), float(position_m[1]))
+    return local_map.known_fraction(xy, radius_m=PLACE_NEIGHBOURHOOD_M) >= PLACE_SEEN_FRACTION
+
+
 class UpdateMemory(SemExpBehaviour):
     READS = (
         "arbitration",
@@ -160,10 +167,9 @@ class UpdateMemory(SemExpBehaviour):
 
     #: A place node stands at least this far from the camera, m.
     min_place_depth_m = 0.5
-    #: Eq. 7 on the costmap: place nodes within this radius of the robot are checked, m ...
+    #: Eq. 7 on the costmap: place nodes within this radius of the robot are checked, and decay once the
+    #: map has seen them (``place_is_seen``), m.
     map_observe_radius_m = 6.0
-    #: ... and decay once the map has seen them (PLACE_SEEN_FRACTION of PLACE_NEIGHBOURHOOD_M).
-    seen_fraction = PLACE_SEEN_FRACTION
 
     def __init__(self, name: str, **kwargs: Any) -> None:
         super().__init__(name, **kwargs)
@@ -349,10 +355,7 @@ class UpdateMemory(SemExpBehaviour):
                 continue
             if state.label not in self.services.place_labels:
                 continue  # objects and landmarks keep their pull: a later instruction may ask for them
-            if (
-                local_map.known_fraction(state.position_m[:2], radius_m=PLACE_NEIGHBOURHOOD_M)
-                >= self.seen_fraction
-            ):
+            if place_is_seen(local_map, state.position_m):
                 memory.scale_potential(node_id=node_id, factor=1.0 - xi)
         if self.map_frontier_confidence > 0.0:
             for x, y, cells in local_map.frontiers((pose.x_m, pose.y_m), radius_m=self.map_observe_radius_m):

@@ -10,8 +10,8 @@ Semantics:
   unexplored direction or a frontier, ``services.place_labels``), when its surroundings were already seen
   as the trip began, or when the robot is within ``finish_within_m`` of it (it may as well arrive).
 - FAILURE, with ``nav_failure`` = ``explored`` and a ``place_seen`` event: once the costmap has observed
-  at least ``seen_fraction`` of the cells within ``neighbourhood_m`` of a place subgoal whose surroundings
-  were unseen when the trip began. The tree's recovery then returns the subgoal to the decision layer
+  the surroundings of a place subgoal (``update_memory.place_is_seen``: 0.85 of its 1 m neighbourhood)
+  that were unseen when the trip began. The tree's recovery then returns the subgoal to the decision layer
   untouched (``NavFailureIs [superseded, explored]``); the next step looks from where the robot stands,
   decays the seen place (UpdateMemory's Eq. 7 on the costmap) and decides again. Each node hands a
   subgoal back at most once per mission, so a place chosen again is walked to the end.
@@ -42,7 +42,7 @@ import py_trees
 from behaviours.base import SemExpBehaviour
 from behaviours.nav_failure_is import EXPLORED
 from behaviours.spec import param
-from behaviours.update_memory import PLACE_NEIGHBOURHOOD_M, PLACE_SEEN_FRACTION
+from behaviours.update_memory import place_is_seen
 
 #: The strategy switch that chooses what happens to a place subgoal seen on the way, and its two values.
 PLACES_SWITCH = "places"
@@ -61,26 +61,27 @@ class WatchPlaceSeen(SemExpBehaviour):
         ge=0.0,
     )
 
-    #: Share of the place's neighbourhood the costmap must have observed (UpdateMemory decays it there).
-    seen_fraction = PLACE_SEEN_FRACTION
-    #: Radius of the neighbourhood, m.
-    neighbourhood_m = PLACE_NEIGHBOURHOOD_M
-
     def __init__(self, name: str, **kwargs: Any) -> None:
         super().__init__(name, **kwargs)
         #: The subgoal's node of this trip while it is an unseen place; None once nothing is to be watched.
         self._watched: int | None = None
         #: Nodes that have handed a subgoal back (over the mission).
         self._handed_back: set[int] = set()
+        #: Whether the watched place is seen, and the costmap frame that said so: only a new frame adds
+        #: observed cells within a trip (the map integrates at 6 Hz, the tree ticks at 50).
+        self._seen = False
+        self._judged_frame = -1
 
     def initialise(self) -> None:
         self._watched = None
+        self._seen = False
+        self._judged_frame = -1
         if self.services.strategy.get(PLACES_SWITCH, WALK_TO) != HAND_BACK_WHEN_SEEN:
             return
         subgoal = self.read("subgoal")
         if subgoal is None or subgoal.node_id in self._handed_back or not self._is_place(subgoal.node_id):
             return
-        if self._seen_share(subgoal.position_m) < self.seen_fraction:
+        if not self._is_seen(subgoal.position_m):
             self._watched = subgoal.node_id
 
     def update(self) -> py_trees.common.Status:
@@ -92,11 +93,14 @@ class WatchPlaceSeen(SemExpBehaviour):
             self._watched = None  # evidence for an object took the place over: go there
             self.feedback_message = "the place became an object"
             return py_trees.common.Status.RUNNING
+        local_map = self.read("local_map")
+        if local_map is not None and local_map.frames != self._judged_frame:
+            self._judged_frame = local_map.frames
+            self._seen = place_is_seen(local_map, subgoal.position_m)
         pose = self.services.robot.base_pose()
         distance_m = math.hypot(subgoal.position_m[0] - pose.x_m, subgoal.position_m[1] - pose.y_m)
-        share = self._seen_share(subgoal.position_m)
-        self.feedback_message = f"place {share:.0%} seen, {distance_m:.1f} m away"
-        if distance_m <= self.finish_within_m or share < self.seen_fraction:
+        self.feedback_message = f"place {'seen' if self._seen else 'unseen'}, {distance_m:.1f} m away"
+        if distance_m <= self.finish_within_m or not self._seen:
             return py_trees.common.Status.RUNNING
         self._handed_back.add(subgoal.node_id)
         self.write("nav_failure", EXPLORED)
@@ -110,8 +114,6 @@ class WatchPlaceSeen(SemExpBehaviour):
         memory = self.read("memory")
         return node_id in memory and memory.node(node_id).label in self.services.place_labels
 
-    def _seen_share(self, position_m: tuple[float, float, float]) -> float:
+    def _is_seen(self, position_m: tuple[float, float, float]) -> bool:
         local_map = self.read("local_map")
-        if local_map is None:
-            return 0.0
-        return float(local_map.known_fraction(position_m[:2], radius_m=self.neighbourhood_m))
+        return local_map is not None and place_is_seen(local_map, position_m)
