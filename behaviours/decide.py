@@ -7,13 +7,15 @@ Semantics (it never returns RUNNING):
   then None, so a recovery branch can act.
 - Halted: nothing to undo; the relaxed choices (below) are kept over the mission.
 
-Reads ``memory`` and ``instruction``; writes ``subgoal`` and ``decision`` (the whole DecisionResult).
+Reads ``memory``, ``instruction`` and ``local_map`` (for ``travel_cost: costmap`` only); writes ``subgoal``
+and ``decision`` (the whole DecisionResult).
 Every decision step, with all candidates and utilities, also goes to the episode record
 (``services.decision_log``).
 
 It filters memory nodes by exploration potential (Eq. 8), scores each candidate with
 U = S^alpha C^beta P^eta exp(-gamma d) (Eq. 9) where S is the instruction relevance of the node's label and
-d the travel cost from the robot (graph shortest path or Euclidean, per config), and takes the greedy
+d the travel cost from the robot (graph shortest path, Euclidean, or the shortest way on the costmap, per
+config ``decision.travel_cost``), and takes the greedy
 argmax (Eq. 10). A strategy (``services.strategy["decision"]``) may replace Eq. 8-10 with a baseline
 (``semexp_bt.core.decision_baselines``); the oracle baseline reads the privileged goal the runner hands it
 and raises ``RuntimeError`` without one.
@@ -39,8 +41,9 @@ import dataclasses
 import functools
 import math
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import Any, Literal
 
+import numpy as np
 import py_trees
 
 from behaviours.base import SemExpBehaviour
@@ -48,11 +51,13 @@ from behaviours.spec import param
 from semexp_bt.core.config import DecisionConfig
 from semexp_bt.core.decision import REASON_EMPTY, DecisionResult, decide
 from semexp_bt.core.decision_baselines import BASELINE_DECISIONS, select_subgoal
-from semexp_bt.core.types import NodeState, Subgoal
+from semexp_bt.core.memory import TopologicalMemory
+from semexp_bt.core.types import NodeState, Pose2D, Subgoal
+from semexp_bt.nav.global_planner import GlobalPlanner
 
 
 class Decide(SemExpBehaviour):
-    READS = ("memory", "instruction")
+    READS = ("memory", "instruction", "local_map")
     WRITES = ("subgoal", "decision")
 
     relax_when_exhausted: bool = param(
@@ -66,6 +71,7 @@ class Decide(SemExpBehaviour):
         super().__init__(name, **kwargs)
         # Per tree, so per mission: a new mission builds a new tree.
         self._relaxed_choices: set[int] = set()
+        self._planner = GlobalPlanner()
 
     def update(self) -> py_trees.common.Status:
         memory = self.read("memory")
@@ -73,8 +79,8 @@ class Decide(SemExpBehaviour):
         config = self.services.config.decision
         instruction = self.read("instruction")
         with self.timed("decision"):
-            costs = memory.travel_costs(from_position_m=(pose.x_m, pose.y_m, 0.0), mode=config.travel_cost)
             nodes = memory.nodes()
+            costs = self._travel_costs(memory, nodes, pose, config.travel_cost)
             result = self._choose(nodes=nodes, instruction=instruction, costs=costs, config=config)
             if result.subgoal is None and result.reason == REASON_EMPTY and self.relax_when_exhausted:
                 unreached = [
@@ -123,6 +129,28 @@ class Decide(SemExpBehaviour):
         sg = result.subgoal
         self.feedback_message = f"node {sg.node_id} {sg.label!r} U={sg.utility:.3f}"
         return py_trees.common.Status.SUCCESS
+
+    def _travel_costs(
+        self,
+        memory: TopologicalMemory,
+        nodes: Sequence[NodeState],
+        pose: Pose2D,
+        mode: Literal["graph", "euclidean", "costmap"],
+    ) -> dict[int, float]:
+        """d(P_robot, P_v) of Eq. 9 for every node, in the config's ``travel_cost`` mode."""
+        robot = (pose.x_m, pose.y_m, 0.0)
+        if mode != "costmap":
+            return memory.travel_costs(from_position_m=robot, mode=mode)
+        costmap = self.read("local_map")
+        distances = None
+        if costmap is not None and nodes:
+            targets = np.asarray([n.position_m[:2] for n in nodes], dtype=float)
+            distances = self._planner.travel_distances(
+                costmap, start_xy=(pose.x_m, pose.y_m), targets_xy=targets
+            )
+        if distances is None:  # no costmap yet, or the robot stands inside the inflation
+            return memory.travel_costs(from_position_m=robot, mode="graph")
+        return {n.node_id: float(d) for n, d in zip(nodes, distances, strict=True)}
 
     def _choose(
         self,

@@ -177,6 +177,35 @@ def test_no_path_is_an_explicit_answer() -> None:
     assert plan.status == "no_path" and len(plan.path_xy) == 0 and plan.length_m == math.inf
 
 
+def test_travel_distances_go_round_what_the_costmap_knows() -> None:
+    """Eq. 9's ``travel_cost: costmap``: through the door, never through the wall; unknown space at its length."""
+    planner = GlobalPlanner()
+    through_door = planner.travel_distances(
+        walled_costmap(door=True), start_xy=(-1.0, 2.5), targets_xy=[(1.0, 2.5), (-1.0, 0.5)]
+    )
+    assert through_door is not None
+    behind_wall, same_side = through_door
+    assert behind_wall >= 2 * math.hypot(1.0, 2.5) - 0.8  # down to the door and back up, less the tolerance
+    assert 1.2 - 0.1 <= same_side <= 2.0 + 0.1  # straight, reached within goal_tolerance_m
+    walled_off = planner.travel_distances(
+        walled_costmap(door=False), start_xy=(-1.0, 2.5), targets_xy=[(1.0, 2.5)]
+    )
+    assert walled_off is not None and walled_off[0] == math.inf
+    unknown = Costmap(CostmapConfig(), footprint=FOOTPRINT, origin_xy=(0.0, 0.0))
+    (open_ground,) = planner.travel_distances(unknown, start_xy=(0.0, 0.0), targets_xy=[(5.0, 0.0)])
+    assert 4.1 <= open_ground <= 5.1
+
+
+def test_travel_distances_need_a_passable_cell_near_the_robot() -> None:
+    occupied = np.zeros((80, 80), dtype=bool)
+    occupied[20:60, 20:60] = True  # a 2 m block: its middle is more than start_escape_m from free floor
+    costmap = Costmap(CostmapConfig(), footprint=FOOTPRINT, origin_xy=(0.0, 0.0))
+    costmap.set_known(occupied, lower_left_xy=(-2.0, -2.0), resolution_m=0.05)
+    planner = GlobalPlanner()
+    assert planner.travel_distances(costmap, start_xy=(0.0, 0.0), targets_xy=[(1.8, 1.8)]) is None
+    assert planner.travel_distances(costmap, start_xy=(-1.8, -1.8), targets_xy=[(1.8, 1.8)]) is not None
+
+
 def test_unknown_space_is_traversable_at_a_price() -> None:
     costmap = Costmap(CostmapConfig(), footprint=FOOTPRINT, origin_xy=(0.0, 0.0))
     plan = GlobalPlanner().plan(costmap, start_xy=(0.0, 0.0), goal_xy=(5.0, 0.0))

@@ -106,8 +106,9 @@ class DecisionConfig:
     """Exponent of exploration potential in Eq. 9."""
     gamma: float = field(default=0.15, metadata=field_range(0.0, 10.0))
     """Travel-cost rate (1/m) in Eq. 9."""
-    travel_cost: Literal["graph", "euclidean"] = "graph"
-    """Travel cost d(P_robot, P_v): shortest path on the memory graph or straight-line distance."""
+    travel_cost: Literal["graph", "euclidean", "costmap"] = "graph"
+    """Travel cost d(P_robot, P_v): shortest path on the memory graph, straight-line distance, or the
+    shortest way on the costmap (``GlobalPlanner.travel_distances``; the graph's where there is no costmap)."""
     relevance_floor: float = field(default=0.1, metadata=field_range(0.0, 1.0))
     """S is floored at this value in Eq. 9, so nodes whose label is unrelated to the instruction (an
     unexplored direction) keep exploration value; 0 gives the paper's literal product."""

@@ -155,6 +155,64 @@ class GlobalPlanner:
             )
         return plan
 
+    def travel_distances(
+        self, costmap: Costmap, *, start_xy: tuple[float, float], targets_xy: npt.ArrayLike
+    ) -> FloatArray | None:
+        """The length of the shortest way (m) from ``start_xy`` to each target, on the costmap.
+
+        The way avoids what the costmap knows to be blocked and crosses never-observed cells at their
+        length (optimistic, as the plans are): one Dijkstra from the robot over the planning cells of the
+        box around the robot and every target, grown by ``window_margin_m``, with a cell passable where any
+        of its costmap cells leaves room for the footprint (the narrow-passage rule of :meth:`plan`). A
+        target counts as reached from any passable cell within ``goal_tolerance_m`` of it, plus the
+        straight gap; ``inf`` when none is connected to the robot.
+
+        Returns:
+            ``(N,)`` distances, or None when no passable cell lies within ``start_escape_m`` of the robot.
+
+        Example:
+            Across a wall 4 m long from a node 1 m away, the node's distance is the way round the wall's
+            end, not 1 m.
+        """
+        require_finite("start_xy", start_xy)
+        targets = np.asarray(targets_xy, dtype=float).reshape(-1, 2)
+        require_finite("targets_xy", targets)
+        cfg = self.config
+        cell = costmap.resolution_m * cfg.cell_factor
+        start = np.asarray(start_xy, dtype=float)
+        grid_lower = np.asarray(costmap.lower_left_xy)
+        points = np.vstack([start[None, :], targets])
+        lo = grid_lower + np.floor((points.min(axis=0) - cfg.window_margin_m - grid_lower) / cell) * cell
+        hi = grid_lower + np.ceil((points.max(axis=0) + cfg.window_margin_m - grid_lower) / cell) * cell
+        cols, rows = (int(v) for v in np.round((hi - lo) / cell))
+        _, widest, _ = _pooled_layers(costmap, lo, rows, cols, cfg.cell_factor)
+        passable = widest >= costmap.inscribed_radius_m
+        centres_x = lo[0] + (np.arange(cols) + 0.5) * cell
+        centres_y = lo[1] + (np.arange(rows) + 0.5) * cell
+        s_col, s_row = (int(v) for v in np.floor((start - lo) / cell))
+        if not passable[s_row, s_col]:
+            start_gap = np.hypot(centres_x[None, :] - start[0], centres_y[:, None] - start[1])
+            near = passable & (start_gap <= cfg.start_escape_m)
+            if not near.any():
+                return None
+            s_row, s_col = (
+                int(v) for v in np.unravel_index(np.argmin(np.where(near, start_gap, np.inf)), near.shape)
+            )
+        no_goal = np.full(rows * cols, np.nan)
+        graph = _lattice_graph(passable, np.ones((rows, cols)), cell, extra_source_prices=no_goal)
+        reached = csgraph.dijkstra(graph, directed=False, indices=s_row * cols + s_col)[: rows * cols]
+        reached = reached.reshape(rows, cols)
+        reach_cells = int(math.ceil(cfg.goal_tolerance_m / cell))
+        distances = np.full(len(targets), np.inf)
+        for i, (x, y) in enumerate(targets):
+            col, row = int((x - lo[0]) // cell), int((y - lo[1]) // cell)
+            r0, r1 = max(row - reach_cells, 0), min(row + reach_cells + 1, rows)
+            c0, c1 = max(col - reach_cells, 0), min(col + reach_cells + 1, cols)
+            gap = np.hypot(centres_x[None, c0:c1] - x, centres_y[r0:r1, None] - y)
+            way = np.where(gap <= cfg.goal_tolerance_m, reached[r0:r1, c0:c1] + gap, np.inf)
+            distances[i] = float(way.min()) if way.size else math.inf
+        return distances
+
     # ------------------------------------------------------------------ internals
     def _plan_in_window(
         self, costmap: Costmap, start_xy: tuple[float, float], goal_xy: tuple[float, float], margin_m: float,

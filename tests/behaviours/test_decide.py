@@ -2,10 +2,15 @@
 
 from __future__ import annotations
 
+import dataclasses
+
+import numpy as np
 import pytest
 from py_trees.common import Status
 
 from behaviours.decide import Decide
+from robots.go1 import go1_footprint
+from semexp_bt.nav.costmap import Costmap, CostmapConfig
 from tests.behaviours.rig import Rig
 
 
@@ -53,3 +58,30 @@ def test_when_every_potential_decayed_a_never_reached_node_may_be_chosen_once(
     if relax:
         assert rig.services.decision_log[0]["reason"].startswith("relaxed: ")
         assert rig.services.decision_log[0]["selected_node_id"] == glimpsed.node_id
+
+
+@pytest.mark.parametrize(("travel_cost", "chosen"), [("graph", "behind the wall"), ("costmap", "this side")])
+def test_the_travel_cost_on_the_costmap_goes_round_the_wall(rig: Rig, travel_cost: str, chosen: str) -> None:
+    """Two equal nodes: one 2 m away behind a wall whose gap is 4 m off, one 3 m away on the robot's side."""
+    occupied = np.zeros((200, 200), dtype=bool)  # 10 m x 10 m, known, centred on the robot
+    occupied[0:180, 118:120] = True  # a wall at x = 0.9-1.0 m, open only beyond y = 4 m
+    costmap = Costmap(CostmapConfig(), footprint=go1_footprint(), origin_xy=(0.0, 0.0))
+    costmap.set_known(occupied, lower_left_xy=(-5.0, -5.0), resolution_m=0.05)
+    rig.set("local_map", costmap)
+    config = rig.services.config
+    rig.services.config = dataclasses.replace(
+        config, decision=dataclasses.replace(config.decision, travel_cost=travel_cost)
+    )
+    memory = rig.get("memory")
+    memory.add_master(position_m=(0.0, 0.0, 0.0), stamp_s=0.0)
+    nodes = {
+        "behind the wall": memory.update(position_m=(2.0, 0.0, 0.5), label="fire extinguisher", confidence=0.8, stamp_s=0.0),
+        "this side": memory.update(position_m=(-3.0, 0.0, 0.5), label="fire extinguisher", confidence=0.8, stamp_s=0.0),
+    }  # fmt: skip
+    decide = rig.build(Decide)
+    assert rig.tick(decide) == [Status.SUCCESS]
+    rig.show(decide)
+    assert rig.get("subgoal").node_id == nodes[chosen].node_id
+    costs = {c["node_id"]: c["travel_cost_m"] for c in rig.services.decision_log[0]["candidates"]}
+    if travel_cost == "costmap":
+        assert costs[nodes["behind the wall"].node_id] > 2 * 4.0 - 1.0  # up past the wall's end and back
