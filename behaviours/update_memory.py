@@ -164,6 +164,13 @@ class UpdateMemory(SemExpBehaviour):
         le=1.0,
     )
     max_revivals: int = param("int", doc="most revivals of one node per mission", default=2, ge=0)
+    instructed_only: bool = param(
+        "bool",
+        doc="offer only object evidence that names the instructed object, and leave the potentials "
+        "(Eq. 7 decay, the costmap's places and frontiers, the visit) as they are: for a glance aside "
+        "at a stop whose own step already grew the memory",
+        default=False,
+    )
 
     #: A place node stands at least this far from the camera, m.
     min_place_depth_m = 0.5
@@ -267,6 +274,12 @@ class UpdateMemory(SemExpBehaviour):
             if observation is not None:
                 patch = self.services.config.arbitration.depth_patch_px
                 offers = self._offers()
+                if self.instructed_only:
+                    offers = [
+                        o
+                        for o in offers
+                        if o.boxed and not o.is_place and self.names_instructed_object(o.label)
+                    ]
                 for pixel, box, label, confidence, is_place, score, boxed in offers:
                     depth = object_surface_depth(observation.depth_m, pixel, None if is_place else box, patch)
                     if is_place:
@@ -299,6 +312,9 @@ class UpdateMemory(SemExpBehaviour):
                     outcomes.append(f"{label}: {result.action}")
                     if result.action == "merged" and score is not None and not is_place:
                         outcomes += self._revive(memory, result.node_id, label, score)
+            if self.instructed_only:
+                self.feedback_message = f"{len(memory)} nodes; " + ", ".join(outcomes[:4])
+                return py_trees.common.Status.SUCCESS
             memory.observe_surroundings(robot_position_m=robot_xyz)
             local_map = self.read("local_map")
             if local_map is not None:
