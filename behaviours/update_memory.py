@@ -30,6 +30,13 @@ with a ``local_map``, place nodes whose neighbourhood the map has mostly seen de
 frontiers are offered as "unexplored area" nodes; and a subgoal within ``visit_radius_m`` is marked
 visited.
 
+A glance aside (``instructed_only``; the explore step's side looks, trees/subtrees/explore_step.yaml):
+only object evidence that the detector boxed and whose label names the instructed object is offered, and
+nothing else changes (no places, frontiers, Eq. 7 decay or visit): the step's own view did those from the
+same spot, and each further view of the VLM alone is one more chance of a look-alike's name (Table III,
+seeds 0-4: with every name of the instructed object offered, 97 ``first_vote_missed`` against 63 without
+glances; docs/planner.md, twenty-eighth round).
+
 Revival: a candidate for the instructed object whose raw Eq. 2 score reaches ``revive_min_score`` (both
 sources agree on it, not a lone weak detection) raises the potential of the node it merged into back to
 that node's confidence, at most ``max_revivals`` times per node. Without it, an object node demoted once

@@ -129,3 +129,29 @@ def test_without_an_observation_it_only_marks_the_subgoal_visited(rig: Rig) -> N
     rig.show(update)
     assert len(memory) == 2
     assert memory.node(node).visits == 1
+
+
+@pytest.mark.parametrize(
+    ("seen", "enters"),
+    [
+        (EXTINGUISHER, True),  # boxed by the detector and named: it enters
+        (Post(1, 2.0, 0.0, vlm_label="fire extinguisher", detector_label=None), False),  # the VLM alone
+    ],
+)
+def test_a_glance_aside_adds_only_the_boxed_instructed_object_and_leaves_the_rest(
+    make_rig: Callable[..., Rig], seen: Post, enters: bool
+) -> None:
+    rig = make_rig(robot=robot_among(seen))
+    memory = rig.get("memory")
+    memory.add_master(position_m=(-3.0, 0.0, 0.0), stamp_s=0.0)
+    near = memory.update(position_m=(0.5, 0.0, 0.3), label="doorway", confidence=0.8, stamp_s=0.0).node_id
+    rig.set("subgoal", Subgoal(node_id=near, position_m=(0.5, 0.0, 0.3), label="doorway", utility=0.5))
+    rig.stage_view([seen], directions=True)
+    update = rig.build(UpdateMemory, instructed_only=True)
+    assert rig.tick(update) == [Status.SUCCESS]
+    rig.show(update)
+    labels = [n.label for n in memory.nodes()]
+    assert ("fire extinguisher" in labels) == enters
+    assert not [label for label in labels if label.startswith("open area") or label == FRONTIER_LABEL]
+    # The step's own view already decayed the surroundings and counted the visit: a glance does neither.
+    assert memory.node(near).potential == pytest.approx(0.8) and memory.node(near).visits == 0
