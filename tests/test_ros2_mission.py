@@ -63,8 +63,9 @@ from tests.ros2_support import (
 EPISODES: list[tuple[str, int]] = [("showroom", 9), ("living_room", 0)]
 #: The end-to-end missions' budget (robot-clock seconds; the shipped mission has 600): the panoramic
 #: start, the first decisions and the navigation toward them, in well under 90 s of wall time per episode
-#: on a loaded 2-core machine (module docstring; figures in docs/ros2.md).
-E2E_BUDGET_S = 40
+#: on a loaded 2-core machine (module docstring; figures in docs/ros2.md). 55 since the explore step's
+#: glances (about 8 s before each decision): at 40 s both episodes ended before the robot had moved 0.1 m.
+E2E_BUDGET_S = 55
 #: Compares two missions' per-tick records (statuses, feedback, blackboard writes) and names the first
 #: difference.
 COMPARE_RECORDS = ROOT / "scripts" / "compare_tick_records.py"
