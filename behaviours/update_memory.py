@@ -243,7 +243,7 @@ class UpdateMemory(SemExpBehaviour):
                             cand.has_box,
                         )
                     )
-        if self.landmark_weight > 0.0 and scene is not None:
+        if self.landmark_weight > 0.0 and scene is not None and not self.instructed_only:
             # The VLM also names context objects that are not candidates for the target ("shelving rack",
             # "desk"); kept as landmark nodes they give the decision semantic places to explore, with the
             # relevance scorer deciding how much each says about the instruction.
@@ -255,7 +255,7 @@ class UpdateMemory(SemExpBehaviour):
                     # for it ("find the red trash can" after the extinguisher) leads right up to it.
                     offers.append(Offer(proposal.point_px, proposal.region_px, proposal.label, weight, False))
         observation = self.read("observation")
-        if self.offer_frontiers and observation is not None:
+        if self.offer_frontiers and observation is not None and not self.instructed_only:
             # Frontiers beside the VLM's directions: the gate of Eq. 6 merges one that lands on a node the
             # VLM already gave, so the memory does not grow twice for one opening.
             frontiers = depth_frontiers(

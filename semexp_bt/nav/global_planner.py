@@ -180,24 +180,15 @@ class GlobalPlanner:
         cfg = self.config
         cell = costmap.resolution_m * cfg.cell_factor
         start = np.asarray(start_xy, dtype=float)
-        grid_lower = np.asarray(costmap.lower_left_xy)
-        points = np.vstack([start[None, :], targets])
-        lo = grid_lower + np.floor((points.min(axis=0) - cfg.window_margin_m - grid_lower) / cell) * cell
-        hi = grid_lower + np.ceil((points.max(axis=0) + cfg.window_margin_m - grid_lower) / cell) * cell
-        cols, rows = (int(v) for v in np.round((hi - lo) / cell))
+        lo, rows, cols = _window(costmap, np.vstack([start[None, :], targets]), cfg.window_margin_m, cell)
         _, widest, _ = _pooled_layers(costmap, lo, rows, cols, cfg.cell_factor)
         passable = widest >= costmap.inscribed_radius_m
         centres_x = lo[0] + (np.arange(cols) + 0.5) * cell
         centres_y = lo[1] + (np.arange(rows) + 0.5) * cell
-        s_col, s_row = (int(v) for v in np.floor((start - lo) / cell))
-        if not passable[s_row, s_col]:
-            start_gap = np.hypot(centres_x[None, :] - start[0], centres_y[:, None] - start[1])
-            near = passable & (start_gap <= cfg.start_escape_m)
-            if not near.any():
-                return None
-            s_row, s_col = (
-                int(v) for v in np.unravel_index(np.argmin(np.where(near, start_gap, np.inf)), near.shape)
-            )
+        start_cell = _start_cell(passable, centres_x, centres_y, start, lo, cell, cfg.start_escape_m)
+        if start_cell is None:
+            return None
+        s_row, s_col = start_cell
         no_goal = np.full(rows * cols, np.nan)
         graph = _lattice_graph(passable, np.ones((rows, cols)), cell, extra_source_prices=no_goal)
         reached = csgraph.dijkstra(graph, directed=False, indices=s_row * cols + s_col)[: rows * cols]
@@ -223,11 +214,7 @@ class GlobalPlanner:
         cell = res * cfg.cell_factor
         start = np.asarray(start_xy, dtype=float)
         goal = np.asarray(goal_xy, dtype=float)
-        # Window corners aligned to the costmap's grid so that planning cells are whole costmap blocks.
-        grid_lower = np.asarray(costmap.lower_left_xy)
-        lo = grid_lower + np.floor((np.minimum(start, goal) - margin_m - grid_lower) / cell) * cell
-        hi = grid_lower + np.ceil((np.maximum(start, goal) + margin_m - grid_lower) / cell) * cell
-        cols, rows = (int(v) for v in np.round((hi - lo) / cell))
+        lo, rows, cols = _window(costmap, np.stack([start, goal]), margin_m, cell)
         distance, widest, observed = _pooled_layers(costmap, lo, rows, cols, cfg.cell_factor)
         inscribed = costmap.inscribed_radius_m
         passable = (widest if fine_passage else distance) >= inscribed
@@ -238,17 +225,11 @@ class GlobalPlanner:
                             costmap.revision, stamp_s, lower_left_xy=(float(lo[0]), float(lo[1])), cell_m=cell)  # fmt: skip
         centres_x = lo[0] + (np.arange(cols) + 0.5) * cell
         centres_y = lo[1] + (np.arange(rows) + 0.5) * cell
-        # The start: the robot's own cell, or the nearest passable one within the escape distance.
-        s_col, s_row = (int(v) for v in np.floor((start - lo) / cell))
-        start_gap = np.hypot(centres_x[None, :] - start[0], centres_y[:, None] - start[1])
-        if not passable[s_row, s_col]:
-            near = passable & (start_gap <= cfg.start_escape_m)
-            if not near.any():
-                failed.status = "start_blocked"
-                return failed
-            s_row, s_col = (
-                int(v) for v in np.unravel_index(np.argmin(np.where(near, start_gap, np.inf)), near.shape)
-            )
+        start_cell = _start_cell(passable, centres_x, centres_y, start, lo, cell, cfg.start_escape_m)
+        if start_cell is None:
+            failed.status = "start_blocked"
+            return failed
+        s_row, s_col = start_cell
         # The goal region, entered through a virtual source at a price.
         gap = np.hypot(centres_x[None, :] - goal[0], centres_y[:, None] - goal[1])
         region = passable & (gap <= cfg.goal_tolerance_m)
@@ -278,6 +259,35 @@ class GlobalPlanner:
         length = float(np.hypot(*np.diff(path, axis=0).T).sum())
         return GlobalPlan("ok", path, (float(goal[0]), float(goal[1])), length, costmap.revision, stamp_s,
                           cost_to_go, (float(lo[0]), float(lo[1])), cell)  # fmt: skip
+
+
+def _window(
+    costmap: Costmap, points_xy: FloatArray, margin_m: float, cell_m: float
+) -> tuple[FloatArray, int, int]:
+    """The search box around ``points_xy`` grown by ``margin_m``: its lower-left corner, rows and columns,
+    aligned to the costmap's grid so that planning cells are whole costmap blocks."""
+    grid_lower = np.asarray(costmap.lower_left_xy)
+    lo = grid_lower + np.floor((points_xy.min(axis=0) - margin_m - grid_lower) / cell_m) * cell_m
+    hi = grid_lower + np.ceil((points_xy.max(axis=0) + margin_m - grid_lower) / cell_m) * cell_m
+    cols, rows = (int(v) for v in np.round((hi - lo) / cell_m))
+    return lo, rows, cols
+
+
+def _start_cell(
+    passable: npt.NDArray[np.bool_], centres_x: FloatArray, centres_y: FloatArray, start: FloatArray,
+    lower_xy: FloatArray, cell_m: float, escape_m: float,
+) -> tuple[int, int] | None:  # fmt: skip
+    """The robot's own planning cell ``(row, col)``, or the nearest passable one within ``escape_m``; None
+    when there is none."""
+    s_col, s_row = (int(v) for v in np.floor((start - lower_xy) / cell_m))
+    if passable[s_row, s_col]:
+        return s_row, s_col
+    start_gap = np.hypot(centres_x[None, :] - start[0], centres_y[:, None] - start[1])
+    near = passable & (start_gap <= escape_m)
+    if not near.any():
+        return None
+    row, col = np.unravel_index(np.argmin(np.where(near, start_gap, np.inf)), near.shape)
+    return int(row), int(col)
 
 
 #: Cells inside the inflated obstacles get the navigation function of the nearest passable cell plus this
